@@ -1,0 +1,166 @@
+//! `envpg oracle`.
+
+use anyhow::{Context, Result};
+use clap::Args;
+use envpg_model::GradientKind;
+use envpg_model::oracle::{OracleConfig, Strategy, run_oracle};
+
+use crate::args::{input_err, load_instance, network, parse_init, positive};
+
+/// Options of `envpg oracle`. Unset temperatures default to values scaled to the instance
+/// (hot start at 10× its squared extent).
+#[derive(Debug, Args)]
+pub struct OracleArgs {
+    /// Instance: `uav271` (bundled) or a path to an instance JSON file.
+    #[arg(long, default_value = "uav271")]
+    instance: String,
+    /// Probability κ ∈ (0, 1] that a hop reaches its intended target.
+    #[arg(long, default_value_t = 1.0)]
+    kappa: f64,
+    /// Concentration η ≥ 0 of off-target moves.
+    #[arg(long, default_value_t = 100.0)]
+    eta: f64,
+    /// Number of restarts from random ζ₀ (uniform over the users' bounding box); the best is kept.
+    #[arg(long, default_value_t = 16)]
+    restarts: usize,
+    /// Seed of ζ₀ draws and annealing noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Initial design of the first restart: 2M comma-separated numbers, or a result file
+    /// (its `zeta0`, e.g. the start of a model-free run).
+    #[arg(long, value_name = "ZETA|RESULT.json")]
+    init: Option<String>,
+    /// How ∇ζ J_H is computed: exactly from the model, or by central differences.
+    #[arg(long, value_enum, default_value = "exact")]
+    gradient: GradientArg,
+    /// Kinds of restart: `anneal` (deterministic annealing from hot; ζ₀ is forgotten), `warm`
+    /// (from ζ₀ at --warm-alpha0, SSP form where it exists), `mixed` (one anneal, the rest
+    /// warm), `auto` (anneal at κ = 1, mixed otherwise). With --init, restart 0 is warm.
+    #[arg(long, value_enum, default_value = "auto")]
+    strategy: StrategyArg,
+    /// Starting temperature of anneal restarts [default: 10 × squared extent of the instance].
+    #[arg(long)]
+    alpha0: Option<f64>,
+    /// Starting temperature of warm restarts [default: 0.5].
+    #[arg(long)]
+    warm_alpha0: Option<f64>,
+    /// Last positive temperature.
+    #[arg(long)]
+    alpha_min: Option<f64>,
+    /// Temperature factor per level, in (0, 1).
+    #[arg(long)]
+    cooling: Option<f64>,
+    /// Levels hotter than this use the finite-horizon form (SSP below) [default: 1% of the squared extent].
+    #[arg(long)]
+    alpha_switch: Option<f64>,
+    /// Horizon of the finite-horizon form [default: M+1, every simple route through the UAVs].
+    #[arg(long)]
+    horizon: Option<usize>,
+    /// L-BFGS iterations per temperature level.
+    #[arg(long)]
+    iters_per_level: Option<usize>,
+    /// Threads for restarts [default: available cores].
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Write the result file (envpg.result.v1) here.
+    #[arg(long)]
+    out: Option<std::path::PathBuf>,
+}
+
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum StrategyArg {
+    Auto,
+    Anneal,
+    Warm,
+    Mixed,
+}
+
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum GradientArg {
+    Exact,
+    Fd,
+}
+
+/// Runs the oracle and prints a summary.
+pub fn run(a: OracleArgs) -> Result<()> {
+    let net = network(load_instance(&a.instance)?, a.kappa, a.eta)?;
+    let mut cfg = OracleConfig::for_network(&net);
+    cfg.restarts = a.restarts;
+    cfg.seed = a.seed;
+    cfg.gradient = match a.gradient {
+        GradientArg::Exact => GradientKind::Exact,
+        GradientArg::Fd => GradientKind::Fd,
+    };
+    cfg.strategy = match a.strategy {
+        StrategyArg::Auto => Strategy::Auto,
+        StrategyArg::Anneal => Strategy::Anneal,
+        StrategyArg::Warm => Strategy::Warm,
+        StrategyArg::Mixed => Strategy::Mixed,
+    };
+    if let Some(x) = a.alpha0 {
+        cfg.alpha0 = positive("--alpha0", x)?;
+    }
+    if let Some(x) = a.warm_alpha0 {
+        cfg.warm_alpha0 = positive("--warm-alpha0", x)?;
+    }
+    if let Some(x) = a.alpha_min {
+        cfg.alpha_min = positive("--alpha-min", x)?;
+    }
+    if let Some(x) = a.cooling {
+        cfg.cooling = x;
+    }
+    if let Some(x) = a.alpha_switch {
+        cfg.alpha_switch = x;
+    }
+    if let Some(h) = a.horizon {
+        cfg.horizon = h;
+    }
+    if let Some(n) = a.iters_per_level {
+        cfg.iters_per_level = n;
+    }
+    if let Some(t) = a.threads {
+        cfg.threads = t.max(1);
+    }
+    if let Some(init) = &a.init {
+        cfg.init = Some(parse_init(init, &net)?);
+    }
+    if let Err(e) = cfg.validate(&net) {
+        return input_err(e.to_string());
+    }
+    let out = run_oracle(&net, &cfg).context("oracle failed")?;
+    let best = &out.restarts[out.best];
+    println!(
+        "oracle  instance={} kappa={} eta={} restarts={} seed={}",
+        net.instance().name,
+        net.kappa(),
+        net.eta(),
+        cfg.restarts,
+        cfg.seed
+    );
+    for r in &out.restarts {
+        println!(
+            "  restart {:>2} ({:?}): J = {:.6}  J_H = {:.6}  ssp_fallbacks = {}  {:.2}s",
+            r.index, r.kind, r.j, r.j_h, r.ssp_fallbacks, r.seconds
+        );
+    }
+    println!(
+        "best J = {:.6} (restart {}), reached by {:.0}% of restarts (within {:.0e}), {:.2}s",
+        best.j,
+        out.best,
+        100.0 * out.fraction_best,
+        cfg.basin_tol,
+        out.seconds
+    );
+    println!("zeta = {}", fmt_vec(&best.zeta));
+    if let Some(path) = &a.out {
+        let file = out.to_result(&net, &cfg)?;
+        file.save(path).with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// Formats a vector compactly.
+pub fn fmt_vec(v: &[f64]) -> String {
+    v.iter().map(|x| format!("{x:.4}")).collect::<Vec<_>>().join(",")
+}

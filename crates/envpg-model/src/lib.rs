@@ -1,0 +1,43 @@
+//! # envpg-model
+//!
+//! Model-based tools: everything that may read the transition model. Used to validate and
+//! score the model-free algorithm, never to steer it.
+//!
+//! ## Main types and functions
+//! - [`Snapshot`]: the whole model at one ζ as flat tables, decomposed into strongly connected
+//!   components so solves go component by component (one M×M system for the UAV network).
+//! - [`evaluate`] / [`visits`]: exact J or J_H of any policy and its expected visit counts.
+//! - [`solve_soft`]: soft value iteration (soft policy iteration per component) with divergence
+//!   detection; α = 0 gives the hard optimum. [`solve_horizon`]: the bounded-horizon variant.
+//! - [`corollary_gradient`], [`horizon_gradient`], [`theorem_gradient`]: exact ζ-gradients
+//!   (visits × local derivative, the EnvPG theorem evaluated with the model); [`fd_gradient`]:
+//!   central differences.
+//! - [`Objective`]: `J_H(ζ)` with gradient at one temperature; [`oracle::run_oracle`]: the
+//!   annealed, multi-restart co-design oracle.
+//! - [`random`]: random smooth parameterized MDPs and policies for the theorem checks.
+//!
+//! ## Data flow
+//! `ModelMdp` + ζ → [`Snapshot`] → [`solve_soft`]/[`solve_horizon`] (values, Gibbs policy) →
+//! [`visits`] → gradient pass over pairs → L-BFGS step on ζ ([`lbfgs`]) → next temperature.
+
+pub mod error;
+pub mod evaluate;
+pub mod grad;
+pub mod horizon;
+pub mod lbfgs;
+pub mod objective;
+pub mod oracle;
+pub mod random;
+pub mod snapshot;
+pub mod soft;
+pub mod uav;
+
+pub use error::ModelError;
+pub use evaluate::{PolicyValue, evaluate, mu_dense, visits};
+pub use grad::{
+    ParamPolicy, accumulate_local, corollary_gradient, fd_gradient, horizon_gradient, policy_table, theorem_gradient,
+};
+pub use horizon::{HorizonSolution, solve_horizon};
+pub use objective::{Evaluated, Form, GradientKind, Objective};
+pub use snapshot::{Scc, Snapshot};
+pub use soft::{SoftSolution, greedy, solve_soft, uniform};

@@ -1,0 +1,221 @@
+//! [`Snapshot`]: the whole model at one ζ, as flat tables, plus its strongly connected components.
+//!
+//! Solvers work on snapshots so each transition is computed once per ζ. The SCC decomposition
+//! lets them solve the MDP component by component in topological order: in the UAV network
+//! every user is its own component and only the M UAVs form a cycle, so an exact evaluation is
+//! one M×M solve plus a pass over the users.
+
+use std::sync::Arc;
+
+use envpg_core::ModelMdp;
+
+/// The model of an MDP at one ζ.
+#[derive(Debug, Clone)]
+pub struct Snapshot {
+    /// Number of states.
+    pub n_states: usize,
+    /// Number of global actions.
+    pub n_actions: usize,
+    /// Discount factor.
+    pub gamma: f64,
+    /// Initial distribution μ as `(state, prob)`.
+    pub mu: Vec<(usize, f64)>,
+    /// Terminal flags.
+    pub terminal: Vec<bool>,
+    /// `sa_start[s]..sa_start[s+1]` are the state–action pairs of `s`.
+    pub sa_start: Vec<usize>,
+    /// Global action of each state–action pair.
+    pub sa_action: Vec<usize>,
+    /// `out_start[sa]..out_start[sa+1]` are the outcomes of pair `sa`.
+    pub out_start: Vec<usize>,
+    /// Successor state of each outcome.
+    pub next: Vec<usize>,
+    /// Probability of each outcome.
+    pub prob: Vec<f64>,
+    /// Cost of each outcome.
+    pub cost: Vec<f64>,
+    /// Expected immediate cost `Σ p c` of each pair.
+    pub rbar: Vec<f64>,
+    /// Strongly connected components in reverse topological order (successors first).
+    pub sccs: Arc<Vec<Scc>>,
+}
+
+/// One strongly connected component of the transition graph.
+#[derive(Debug, Clone)]
+pub struct Scc {
+    /// Its states.
+    pub states: Vec<usize>,
+    /// Whether it contains a cycle (more than one state, or a self-loop).
+    pub cyclic: bool,
+}
+
+impl Snapshot {
+    /// Expands `mdp` at `zeta`.
+    pub fn build<M: ModelMdp>(mdp: &M, zeta: &[f64]) -> Self {
+        Self::build_like(mdp, zeta, None)
+    }
+
+    /// Expands `mdp` at `zeta`, reusing the component decomposition of `like` when the
+    /// transition structure is unchanged (the usual case between nearby designs).
+    pub fn build_like<M: ModelMdp>(mdp: &M, zeta: &[f64], like: Option<&Snapshot>) -> Self {
+        let n = mdp.n_states();
+        let mut snap = Snapshot {
+            n_states: n,
+            n_actions: mdp.n_actions(),
+            gamma: mdp.gamma(),
+            mu: mdp.initial_distribution(),
+            terminal: (0..n).map(|s| mdp.is_terminal(s)).collect(),
+            sa_start: Vec::with_capacity(n + 1),
+            sa_action: Vec::with_capacity(like.map_or(0, |l| l.sa_action.len())),
+            out_start: Vec::with_capacity(like.map_or(1, |l| l.out_start.len())),
+            next: Vec::with_capacity(like.map_or(0, |l| l.next.len())),
+            prob: Vec::with_capacity(like.map_or(0, |l| l.next.len())),
+            cost: Vec::with_capacity(like.map_or(0, |l| l.next.len())),
+            rbar: Vec::with_capacity(like.map_or(0, |l| l.sa_action.len())),
+            sccs: Arc::new(Vec::new()),
+        };
+        snap.out_start.push(0);
+        let mut ends = Vec::new();
+        for s in 0..n {
+            snap.sa_start.push(snap.sa_action.len());
+            ends.clear();
+            let first = snap.next.len();
+            mdp.state_outcomes(s, zeta, &mut snap.next, &mut snap.prob, &mut snap.cost, &mut ends);
+            let mut lo = first;
+            for (&a, &hi) in mdp.valid_actions(s).iter().zip(&ends) {
+                snap.sa_action.push(a);
+                snap.rbar.push((lo..hi).map(|o| snap.prob[o] * snap.cost[o]).sum());
+                snap.out_start.push(hi);
+                lo = hi;
+            }
+            debug_assert_eq!(ends.len(), mdp.valid_actions(s).len());
+        }
+        snap.sa_start.push(snap.sa_action.len());
+        let same_support = |l: &Snapshot| {
+            l.out_start == snap.out_start
+                && l.next == snap.next
+                && l.prob.iter().zip(&snap.prob).all(|(a, b)| (*a > 0.0) == (*b > 0.0))
+        };
+        snap.sccs = match like {
+            Some(l) if same_support(l) => Arc::clone(&l.sccs),
+            _ => Arc::new(tarjan(&snap)),
+        };
+        snap
+    }
+
+    /// The state–action pair indices of `s`.
+    #[inline]
+    pub fn sas(&self, s: usize) -> std::ops::Range<usize> {
+        self.sa_start[s]..self.sa_start[s + 1]
+    }
+
+    /// The outcome indices of pair `sa`.
+    #[inline]
+    pub fn outs(&self, sa: usize) -> std::ops::Range<usize> {
+        self.out_start[sa]..self.out_start[sa + 1]
+    }
+
+    /// `Σ_o p_o V(next_o)` for pair `sa`.
+    #[inline]
+    pub fn expect(&self, sa: usize, v: &[f64]) -> f64 {
+        self.outs(sa).map(|o| self.prob[o] * v[self.next[o]]).sum()
+    }
+
+    /// The number of state–action pairs.
+    pub fn n_pairs(&self) -> usize {
+        self.sa_action.len()
+    }
+
+    /// The state of each state–action pair.
+    pub fn pair_states(&self) -> Vec<usize> {
+        let mut out = vec![0; self.n_pairs()];
+        for s in 0..self.n_states {
+            for sa in self.sas(s) {
+                out[sa] = s;
+            }
+        }
+        out
+    }
+}
+
+/// Iterative Tarjan over edges with positive probability; components come out sinks first.
+fn tarjan(snap: &Snapshot) -> Vec<Scc> {
+    let n = snap.n_states;
+    // Deduplicated successor lists in CSR form.
+    let mut adj_start = Vec::with_capacity(n + 1);
+    let mut adj = Vec::new();
+    let mut mark = vec![usize::MAX; n];
+    for s in 0..n {
+        adj_start.push(adj.len());
+        let lo = snap.out_start[snap.sa_start[s]];
+        let hi = snap.out_start[snap.sa_start[s + 1]];
+        for o in lo..hi {
+            let t = snap.next[o];
+            if snap.prob[o] > 0.0 && mark[t] != s {
+                mark[t] = s;
+                adj.push(t);
+            }
+        }
+    }
+    adj_start.push(adj.len());
+    const UNSEEN: usize = usize::MAX;
+    let mut index = vec![UNSEEN; n];
+    let mut low = vec![0; n];
+    let mut on_stack = vec![false; n];
+    let mut stack = Vec::new();
+    let mut out = Vec::new();
+    let mut counter = 0;
+    // Call stack of (node, next successor position).
+    let mut call: Vec<(usize, usize)> = Vec::new();
+    for root in 0..n {
+        if index[root] != UNSEEN {
+            continue;
+        }
+        index[root] = counter;
+        low[root] = counter;
+        counter += 1;
+        stack.push(root);
+        on_stack[root] = true;
+        call.push((root, adj_start[root]));
+        while let Some(&mut (v, ref mut pos)) = call.last_mut() {
+            if *pos < adj_start[v + 1] {
+                let w = adj[*pos];
+                *pos += 1;
+                if index[w] == UNSEEN {
+                    index[w] = counter;
+                    low[w] = counter;
+                    counter += 1;
+                    stack.push(w);
+                    on_stack[w] = true;
+                    call.push((w, adj_start[w]));
+                } else if on_stack[w] {
+                    low[v] = low[v].min(index[w]);
+                }
+            } else {
+                call.pop();
+                if let Some(&(u, _)) = call.last() {
+                    low[u] = low[u].min(low[v]);
+                }
+                if low[v] == index[v] {
+                    let mut states = Vec::new();
+                    loop {
+                        let w = stack.pop().expect("tarjan stack");
+                        on_stack[w] = false;
+                        states.push(w);
+                        if w == v {
+                            break;
+                        }
+                    }
+                    let cyclic = if states.len() > 1 {
+                        states.sort_unstable();
+                        true
+                    } else {
+                        adj[adj_start[v]..adj_start[v + 1]].contains(&v)
+                    };
+                    out.push(Scc { states, cyclic });
+                }
+            }
+        }
+    }
+    out
+}
