@@ -39,8 +39,16 @@ pub fn run(cmd: BenchCmd) -> Result<()> {
             let inst = load_instance(&instance)?;
             positive("--alpha", alpha)?;
             positive("--seconds", seconds)?;
-            println!("gradient benchmark: {} ({} users, {} UAVs), alpha = {alpha}", inst.name, inst.n_users(), inst.n_uav);
-            println!("{:>6}  {:>14}  {:>14}  {:>8}  {:>12}", "kappa", "exact (µs)", "central (µs)", "ratio", "rel diff");
+            println!(
+                "gradient benchmark: {} ({} users, {} UAVs), alpha = {alpha}",
+                inst.name,
+                inst.n_users(),
+                inst.n_uav
+            );
+            println!(
+                "{:>6}  {:>14}  {:>14}  {:>8}  {:>12}",
+                "kappa", "exact (µs)", "central (µs)", "ratio", "rel diff"
+            );
             for kappa in kappas {
                 let net = network(inst.clone(), kappa, 100.0)?;
                 let zeta = match &zeta {
@@ -55,7 +63,8 @@ pub fn run(cmd: BenchCmd) -> Result<()> {
                 let ge = exact.value_grad(&zeta, Some(&warm))?.grad;
                 let gf = fd.value_grad(&zeta, Some(&warm))?.grad;
                 let norm = |v: &mut dyn Iterator<Item = f64>| v.map(|x| x * x).sum::<f64>().sqrt();
-                let diff = norm(&mut ge.iter().zip(&gf).map(|(a, b)| a - b)) / norm(&mut gf.iter().copied()).max(1e-300);
+                let diff =
+                    norm(&mut ge.iter().zip(&gf).map(|(a, b)| a - b)) / norm(&mut gf.iter().copied()).max(1e-300);
                 let budget = Duration::from_secs_f64(seconds / 2.0);
                 let te = time_per_call(budget, || exact.value_grad(&zeta, Some(&warm)).map(|_| ()))?;
                 let tf = time_per_call(budget, || fd.value_grad(&zeta, Some(&warm)).map(|_| ()))?;

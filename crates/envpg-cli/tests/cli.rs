@@ -19,8 +19,18 @@ fn stderr(o: &Output) -> String {
 fn generate(dir: &Path, users: usize, uavs: usize) -> String {
     let path = dir.join("tiny.json");
     let o = envpg(&[
-        "instance", "generate", "--users", &users.to_string(), "--uavs", &uavs.to_string(), "--clusters", "3", "--seed",
-        "4", "--out", path.to_str().unwrap(),
+        "instance",
+        "generate",
+        "--users",
+        &users.to_string(),
+        "--uavs",
+        &uavs.to_string(),
+        "--clusters",
+        "3",
+        "--seed",
+        "4",
+        "--out",
+        path.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     path.to_str().unwrap().to_owned()
@@ -31,7 +41,8 @@ fn oracle_result_rescored_by_evaluate_matches() {
     let dir = tempfile::tempdir().unwrap();
     let inst = generate(dir.path(), 30, 3);
     let out = dir.path().join("r.json");
-    let o = envpg(&["oracle", "--instance", &inst, "--kappa", "0.9", "--restarts", "2", "--out", out.to_str().unwrap()]);
+    let o =
+        envpg(&["oracle", "--instance", &inst, "--kappa", "0.9", "--restarts", "2", "--out", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("best J ="), "{}", stdout(&o));
     let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();

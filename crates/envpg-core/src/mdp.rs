@@ -21,6 +21,11 @@ pub trait ParamMdp {
     fn is_terminal(&self, s: usize) -> bool;
     /// Draws an initial state from μ.
     fn sample_initial<R: Rng + ?Sized>(&self, rng: &mut R) -> usize;
+    /// Draws a start state for *exploring starts*: a non-terminal state outside μ's usual
+    /// reach that a simulator can be put in directly. Defaults to [`ParamMdp::sample_initial`].
+    fn sample_exploring_start<R: Rng + ?Sized>(&self, rng: &mut R) -> usize {
+        self.sample_initial(rng)
+    }
     /// Takes action `a` in state `s` with the environment at parameter `zeta`; returns the
     /// successor state and the cost of the transition.
     fn step<R: Rng + ?Sized>(&self, s: usize, a: usize, zeta: &[f64], rng: &mut R) -> (usize, f64);

@@ -236,6 +236,10 @@ impl ParamMdp for UavNetwork {
     fn sample_initial<R: Rng + ?Sized>(&self, rng: &mut R) -> usize {
         rng.random_range(0..self.n_users())
     }
+    /// A uniformly drawn UAV: the relay states μ only reaches through the policy.
+    fn sample_exploring_start<R: Rng + ?Sized>(&self, rng: &mut R) -> usize {
+        self.uav_state(rng.random_range(0..self.n_uav()))
+    }
     fn step<R: Rng + ?Sized>(&self, s: usize, a: usize, zeta: &[f64], rng: &mut R) -> (usize, f64) {
         debug_assert!(self.valid_actions(s).contains(&a), "action {a} invalid in state {s}");
         // Exactly one uniform decides on-/off-target, and one more picks the off-target state,

@@ -72,7 +72,14 @@ pub fn corollary_gradient<M: ModelMdp>(
 }
 
 /// `Σ_s ρ(s) Σ_a π(a|s) ∇ζ[Σ p (c + γV)]` for a policy held fixed.
-fn policy_fixed_gradient<M: ModelMdp>(mdp: &M, zeta: &[f64], snap: &Snapshot, pi: &[f64], v: &[f64], rho: &[f64]) -> Vec<f64> {
+fn policy_fixed_gradient<M: ModelMdp>(
+    mdp: &M,
+    zeta: &[f64],
+    snap: &Snapshot,
+    pi: &[f64],
+    v: &[f64],
+    rho: &[f64],
+) -> Vec<f64> {
     let states = snap.pair_states();
     let mut grad = vec![0.0; zeta.len()];
     accumulate_with(mdp, zeta, snap, &mut grad, |sa, o| {

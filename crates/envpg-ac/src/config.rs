@@ -1,0 +1,392 @@
+//! [`AcConfig`]: every setting of Algorithm 1, with defaults, validation and TOML presets.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+/// How the actor follows the critic.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ActorUpdate {
+    /// The paper's entropy-regularised policy gradient (eq. entropy_spg) on sampled actions:
+    /// `Σ_t (Q_φ(s_t,a_t,ζ_k) + α) ∇θ ln π_θ(a_t|s_t,ζ_k)`.
+    Pg,
+    /// Fit π_θ(·|s,ζ) to the critic's Gibbs policy `∝ π_θ exp(−Q_φ/α)` by cross-entropy
+    /// (the soft-optimal form of the paper's Remark); avoids the softmax-PG plateau.
+    GibbsFit,
+}
+
+/// How the per-step ζ-gradient term is estimated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ZetaEstimator {
+    /// The paper's eq. (entropy_envpg) on the sampled action:
+    /// `∇ζ Q_φ(s,a,ζ) + ∇ζ ln π_θ(a|s,ζ) · Q_φ(s,a,ζ_k)`.
+    Sampled,
+    /// The same with the ζ-baseline: `Q_φ(s,a,ζ_k) − V(s)`, `V = Σ_a π Q_φ`, in the score term.
+    Baseline,
+    /// The exact average over actions: `∇ζ Σ_a π_θ(a|s,ζ) Q_φ(s,a,ζ)`.
+    Expected,
+    /// The Gibbs corollary (eq. gibbs_gradient): `Σ_a π_θ(a|s,ζ_k) ∇ζ Q_φ(s,a,ζ)` with the
+    /// policy held fixed — exact when the actor is the soft-optimal Gibbs policy, for which the
+    /// score term vanishes in expectation; drops the imperfect actor's reaction to ζ.
+    Corollary,
+}
+
+/// How ζ follows its gradient estimate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ZetaOptimizer {
+    /// The paper's step `ζ ← ζ − ι·ĝ` (after optional norm clipping).
+    Sgd,
+    /// Adam on ζ: per-coordinate normalised steps of about ι, so a UAV whose gradient is small
+    /// but consistent (a relay the policy barely uses yet) still moves.
+    Adam,
+}
+
+/// How the critic starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CriticInit {
+    /// Default initialisation (output ≈ 0: optimistic in a cost-minimising SSP).
+    Default,
+    /// Output scaled by the mean return R̄ of the first iteration's on-policy episodes and
+    /// starting at R̄ (Q = R̄·network, network output bias 1).
+    MeanReturn,
+}
+
+/// Where ζ₀ comes from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Zeta0 {
+    /// Uniform over the users' bounding box (stream `Zeta0` of the seed).
+    Random,
+    /// From the observable user coordinates: k-means centres of the users, ordered along the
+    /// line to the destination, pulled part of the way towards it (no model involved).
+    Users,
+    /// A given design.
+    Given(Vec<f64>),
+}
+
+/// Settings of Algorithm 1. Defaults are the values with which the README's acceptance
+/// figures were measured.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AcConfig {
+    /// Outer iterations k_max.
+    pub iterations: usize,
+    /// On-policy episodes per iteration M (from μ, actions from π_θk at ζ_k).
+    pub episodes: usize,
+    /// Extra exploration episodes per iteration, used only to train critic and actor.
+    pub explore_episodes: usize,
+    /// Probability of a uniform action in exploration episodes.
+    pub explore_eps: f64,
+    /// Fraction of exploration episodes starting at a uniformly drawn non-initial state
+    /// (exploring starts through the step interface).
+    pub explore_start: f64,
+    /// Episode length cap (steps).
+    pub episode_cap: usize,
+    /// Standard deviation σ of the per-step perturbation ζ_pert = ζ_k + N(0, σ²I).
+    pub sigma: f64,
+    /// Hidden-layer widths of actor and critic.
+    pub hidden: Vec<usize>,
+    /// How ζ itself is fed to the networks.
+    pub zeta_input: crate::features::ZetaInput,
+    /// Critic learning rate (Adam).
+    pub critic_lr: f64,
+    /// Critic steps per iteration.
+    pub critic_steps: usize,
+    /// Minibatch size N.
+    pub batch: usize,
+    /// Polyak rate τ of the target critic: φ⁻ ← τφ + (1−τ)φ⁻.
+    pub polyak: f64,
+    /// Critic initialisation.
+    pub critic_init: CriticInit,
+    /// Actor learning rate (Adam).
+    pub actor_lr: f64,
+    /// Actor steps per iteration.
+    pub actor_steps: usize,
+    /// Actor update rule.
+    pub actor_update: ActorUpdate,
+    /// Iterations before ζ starts moving.
+    pub warmup: usize,
+    /// ζ step size ι.
+    pub zeta_lr: f64,
+    /// ι_k = zeta_lr · zeta_lr_decay^(k − warmup).
+    pub zeta_lr_decay: f64,
+    /// Clip the norm of the ζ-gradient estimate at this value (0: no clipping).
+    pub zeta_clip: f64,
+    /// ζ-gradient estimator.
+    pub zeta_estimator: ZetaEstimator,
+    /// ζ update rule.
+    pub zeta_optimizer: ZetaOptimizer,
+    /// Every this many iterations after warm-up, move one *idle* design element (a UAV the
+    /// on-policy episodes did not visit lately) to the midpoint of the costliest on-policy hop
+    /// (0: never). Moving an
+    /// unused UAV does not change J, and it gives the gradient a UAV to work with; without it
+    /// a UAV that loses its traffic stays unused (the single-UAV trap).
+    pub relocate_every: usize,
+    /// A design element is idle when its recent visit rate is below this fraction of the
+    /// busiest one's.
+    pub relocate_below: f64,
+    /// When more than this fraction of on-policy episodes hit the cap, the entropy term is paying
+    /// for loops between UAVs (the model-free face of soft SSP divergence): the ζ step is skipped
+    /// and α is multiplied by `alpha_backoff` (1 disables both).
+    pub loop_tolerance: f64,
+    /// Extra temperature factor applied while looping.
+    pub alpha_backoff: f64,
+    /// Initial temperature α₀.
+    pub alpha0: f64,
+    /// Temperature factor per iteration υ; 0 means "reach `alpha_final` at the last iteration".
+    pub alpha_decay: f64,
+    /// Final temperature when `alpha_decay` is 0.
+    pub alpha_final: f64,
+    /// Initial design.
+    pub zeta0: Zeta0,
+    /// Exact J of (ζ_k, greedy π) is recorded every this many iterations (reporting only).
+    pub eval_every: usize,
+}
+
+impl Default for AcConfig {
+    fn default() -> Self {
+        Self {
+            iterations: 2000,
+            episodes: 32,
+            explore_episodes: 16,
+            explore_eps: 0.3,
+            explore_start: 0.5,
+            episode_cap: 25,
+            sigma: 0.3,
+            hidden: vec![128],
+            zeta_input: crate::features::ZetaInput::Centered,
+            critic_lr: 1e-3,
+            critic_steps: 2,
+            batch: 256,
+            polyak: 0.1,
+            critic_init: CriticInit::MeanReturn,
+            actor_lr: 1e-3,
+            actor_steps: 1,
+            actor_update: ActorUpdate::GibbsFit,
+            warmup: 200,
+            zeta_lr: 0.02,
+            zeta_lr_decay: 1.0,
+            zeta_clip: 2.0,
+            zeta_estimator: ZetaEstimator::Corollary,
+            zeta_optimizer: ZetaOptimizer::Sgd,
+            loop_tolerance: 0.05,
+            alpha_backoff: 0.8,
+            relocate_every: 50,
+            relocate_below: 0.01,
+            alpha0: 1.0,
+            alpha_decay: 0.0,
+            alpha_final: 0.01,
+            zeta0: Zeta0::Random,
+            eval_every: 50,
+        }
+    }
+}
+
+/// A setting is out of range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("invalid setting `{field}`: {reason}")]
+pub struct ConfigError {
+    /// The setting.
+    pub field: &'static str,
+    /// What is wrong.
+    pub reason: String,
+}
+
+/// A preset file could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum PresetError {
+    /// Unreadable file.
+    #[error("cannot read preset file {path}: {err}")]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The I/O error.
+        err: std::io::Error,
+    },
+    /// Not valid TOML or unknown keys.
+    #[error("malformed preset file {path}: {err}")]
+    Parse {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The TOML error.
+        err: toml::de::Error,
+    },
+    /// No such preset in the file.
+    #[error("preset file {path} has no preset named {name:?} (it has: {available})")]
+    Missing {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The requested name.
+        name: String,
+        /// Names present.
+        available: String,
+    },
+    /// The preset's values are invalid.
+    #[error("preset {name:?} in {path}: {err}")]
+    Invalid {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The preset.
+        name: String,
+        /// The problem.
+        err: ConfigError,
+    },
+}
+
+impl AcConfig {
+    /// The temperature factor per iteration υ.
+    pub fn upsilon(&self) -> f64 {
+        if self.alpha_decay > 0.0 {
+            self.alpha_decay
+        } else if self.iterations <= 1 {
+            1.0
+        } else {
+            (self.alpha_final / self.alpha0).powf(1.0 / (self.iterations - 1) as f64)
+        }
+    }
+
+    /// α at iteration k of the nominal schedule (before any loop back-off).
+    pub fn alpha_at(&self, k: usize) -> f64 {
+        self.alpha0 * self.upsilon().powi(k as i32)
+    }
+
+    /// Checks every range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let err = |field: &'static str, reason: String| Err(ConfigError { field, reason });
+        let finite_pos = |x: f64| x.is_finite() && x > 0.0;
+        let prob = |x: f64| x.is_finite() && (0.0..=1.0).contains(&x);
+        if self.iterations == 0 {
+            return err("iterations", "must be at least 1".into());
+        }
+        if self.episodes == 0 {
+            return err("episodes", "must be at least 1".into());
+        }
+        if !prob(self.explore_eps) {
+            return err("explore_eps", format!("must be in [0, 1], got {}", self.explore_eps));
+        }
+        if !prob(self.explore_start) {
+            return err("explore_start", format!("must be in [0, 1], got {}", self.explore_start));
+        }
+        if self.episode_cap == 0 {
+            return err("episode_cap", "must be at least 1".into());
+        }
+        if !(self.sigma.is_finite() && self.sigma >= 0.0) {
+            return err("sigma", format!("must be finite and >= 0, got {}", self.sigma));
+        }
+        if self.hidden.is_empty() || self.hidden.contains(&0) {
+            return err("hidden", format!("needs at least one layer of positive width, got {:?}", self.hidden));
+        }
+        if !finite_pos(self.critic_lr) {
+            return err("critic_lr", format!("must be finite and > 0, got {}", self.critic_lr));
+        }
+        if !finite_pos(self.actor_lr) {
+            return err("actor_lr", format!("must be finite and > 0, got {}", self.actor_lr));
+        }
+        if self.batch == 0 {
+            return err("batch", "must be at least 1".into());
+        }
+        if !(self.polyak.is_finite() && self.polyak > 0.0 && self.polyak <= 1.0) {
+            return err("polyak", format!("must be in (0, 1], got {}", self.polyak));
+        }
+        if !(self.zeta_lr.is_finite() && self.zeta_lr >= 0.0) {
+            return err("zeta_lr", format!("must be finite and >= 0, got {}", self.zeta_lr));
+        }
+        if !(self.zeta_lr_decay.is_finite() && self.zeta_lr_decay > 0.0 && self.zeta_lr_decay <= 1.0) {
+            return err("zeta_lr_decay", format!("must be in (0, 1], got {}", self.zeta_lr_decay));
+        }
+        if !(self.zeta_clip.is_finite() && self.zeta_clip >= 0.0) {
+            return err("zeta_clip", format!("must be finite and >= 0, got {}", self.zeta_clip));
+        }
+        if !(self.relocate_below.is_finite() && (0.0..1.0).contains(&self.relocate_below)) {
+            return err("relocate_below", format!("must be in [0, 1), got {}", self.relocate_below));
+        }
+        if !(self.loop_tolerance.is_finite() && (0.0..=1.0).contains(&self.loop_tolerance)) {
+            return err("loop_tolerance", format!("must be in [0, 1], got {}", self.loop_tolerance));
+        }
+        if !(self.alpha_backoff.is_finite() && self.alpha_backoff > 0.0 && self.alpha_backoff <= 1.0) {
+            return err("alpha_backoff", format!("must be in (0, 1], got {}", self.alpha_backoff));
+        }
+        if !finite_pos(self.alpha0) {
+            return err("alpha0", format!("must be finite and > 0, got {}", self.alpha0));
+        }
+        if !(self.alpha_decay.is_finite() && (0.0..=1.0).contains(&self.alpha_decay)) {
+            return err("alpha_decay", format!("must be in (0, 1] (or 0 for automatic), got {}", self.alpha_decay));
+        }
+        if !(finite_pos(self.alpha_final) && self.alpha_final <= self.alpha0) {
+            return err("alpha_final", format!("must be in (0, alpha0], got {}", self.alpha_final));
+        }
+        if self.eval_every == 0 {
+            return err("eval_every", "must be at least 1".into());
+        }
+        if let Zeta0::Given(z) = &self.zeta0
+            && let Some(i) = z.iter().position(|x| !x.is_finite())
+        {
+            return err("zeta0", format!("entry {i} is not finite"));
+        }
+        Ok(())
+    }
+
+    /// Loads preset `name` from a TOML file of `[name]` tables; unset keys keep their defaults.
+    pub fn from_preset(path: &Path, name: &str) -> Result<Self, PresetError> {
+        let text = std::fs::read_to_string(path).map_err(|err| PresetError::Io { path: path.to_owned(), err })?;
+        Self::from_preset_str(&text, path, name)
+    }
+
+    /// As [`AcConfig::from_preset`], from text.
+    pub fn from_preset_str(text: &str, path: &Path, name: &str) -> Result<Self, PresetError> {
+        let mut table: toml::Table =
+            toml::from_str(text).map_err(|err| PresetError::Parse { path: path.to_owned(), err })?;
+        let Some(value) = table.remove(name) else {
+            return Err(PresetError::Missing {
+                path: path.to_owned(),
+                name: name.to_owned(),
+                available: table.keys().cloned().collect::<Vec<_>>().join(", "),
+            });
+        };
+        let cfg: AcConfig = value.try_into().map_err(|err| PresetError::Parse { path: path.to_owned(), err })?;
+        cfg.validate().map_err(|err| PresetError::Invalid { path: path.to_owned(), name: name.to_owned(), err })?;
+        Ok(cfg)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_alpha_reaches_its_final_value() {
+        let c = AcConfig::default();
+        c.validate().unwrap();
+        assert!((c.alpha_at(c.iterations - 1) - c.alpha_final).abs() < 1e-12);
+    }
+
+    #[test]
+    fn presets_override_defaults_and_reject_unknown_keys() {
+        let text = "[fast]\niterations = 10\nsigma = 0.1\nzeta_estimator = \"sampled\"\n[other]\nepisodes = 3\n";
+        let c = AcConfig::from_preset_str(text, Path::new("p.toml"), "fast").unwrap();
+        assert_eq!((c.iterations, c.sigma, c.zeta_estimator), (10, 0.1, ZetaEstimator::Sampled));
+        assert_eq!(c.episodes, AcConfig::default().episodes);
+        let e = AcConfig::from_preset_str("[x]\nsigmaa = 1\n", Path::new("p.toml"), "x").unwrap_err();
+        assert!(e.to_string().contains("unknown field `sigmaa`"), "{e}");
+        let e = AcConfig::from_preset_str(text, Path::new("p.toml"), "nope").unwrap_err();
+        assert!(e.to_string().contains("fast, other"), "{e}");
+        let e = AcConfig::from_preset_str("[x]\nsigma = -1.0\n", Path::new("p.toml"), "x").unwrap_err();
+        assert!(e.to_string().contains("sigma"), "{e}");
+    }
+
+    #[test]
+    fn out_of_range_settings_are_named() {
+        let bad = [
+            AcConfig { sigma: f64::NAN, ..Default::default() },
+            AcConfig { alpha0: -1.0, ..Default::default() },
+            AcConfig { explore_eps: 1.5, ..Default::default() },
+            AcConfig { polyak: 0.0, ..Default::default() },
+        ];
+        let fields: Vec<_> = bad.iter().map(|c| c.validate().unwrap_err().field).collect();
+        assert_eq!(fields, ["sigma", "alpha0", "explore_eps", "polyak"]);
+    }
+}

@@ -1,0 +1,712 @@
+//! [`Learner`]: the learner side of Algorithm 1 as a pure state machine.
+//!
+//! `update(&Batch) -> Stats` takes the episodes of iteration k (generated with θ_k at ζ_k) and
+//! performs, in order: the critic's TD steps with a Polyak-averaged target critic, the EnvPG
+//! estimate of ∇ζ J_H(π_θk, ζ_k) (after warm-up), the actor step, the ζ step and the α decay.
+//! It never touches the environment: only the transitions and the observable features.
+
+use envpg_core::{Observable, Purpose, Streams};
+use envpg_nn::{Adam, Mlp};
+use rand::RngExt;
+use serde::{Deserialize, Serialize};
+
+use crate::config::{AcConfig, ActorUpdate, CriticInit, ZetaEstimator, ZetaOptimizer};
+use crate::features::Features;
+use crate::nets::{ActionSets, Columns, Net, softmax};
+use crate::rollout::{Episode, EpisodeKind, episode_ids};
+use crate::table::PolicyTable;
+
+/// The episodes of one iteration, ordered as [`episode_ids`].
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Batch {
+    /// Iteration k.
+    pub k: u64,
+    /// Episodes, on-policy first, by index.
+    pub episodes: Vec<Episode>,
+}
+
+/// What one update did.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Stats {
+    /// Iteration k of the batch.
+    pub k: u64,
+    /// Temperature α_k used.
+    pub alpha: f64,
+    /// Mean over on-policy episodes of Σ_t (c_t + α ln π(a_t|s_t)): the learner's J_H estimate.
+    pub j_h_estimate: f64,
+    /// Mean on-policy episode cost (the learner's J estimate).
+    pub j_estimate: f64,
+    /// Critic loss of the last step.
+    pub critic_loss: f64,
+    /// Actor loss of the last step.
+    pub actor_loss: f64,
+    /// The ζ-gradient estimate (None during warm-up).
+    pub zeta_grad: Option<Vec<f64>>,
+    /// Its norm before clipping.
+    pub grad_norm: Option<f64>,
+    /// Transitions in the batch.
+    pub transitions: usize,
+    /// Mean on-policy episode length.
+    pub mean_len: f64,
+    /// Episodes that hit the cap.
+    pub capped: usize,
+    /// Design element (state) relocated this iteration, if any.
+    pub relocated: Option<u32>,
+    /// More on-policy episodes than tolerated hit the cap: ζ held, α backed off.
+    pub looping: bool,
+}
+
+/// Why a batch was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LearnerError {
+    /// The batch is for another iteration.
+    #[error("batch is for iteration {got}, the learner is at {expected}")]
+    WrongIteration {
+        /// Learner's k.
+        expected: u64,
+        /// Batch's k.
+        got: u64,
+    },
+    /// Episodes missing, duplicated or out of order.
+    #[error("batch episodes do not match the iteration's episode set: {0}")]
+    Episodes(String),
+    /// A transition refers to an invalid state, action or design.
+    #[error("invalid transition in episode {episode}: {reason}")]
+    Transition {
+        /// Episode index.
+        episode: u32,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// Everything the learner carries between iterations (for checkpoints).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LearnerState {
+    /// Iteration k (next batch expected).
+    pub k: u64,
+    /// ζ_k.
+    pub zeta: Vec<f64>,
+    /// α_k.
+    pub alpha: f64,
+    /// Actor parameters θ.
+    pub actor: Vec<f32>,
+    /// Critic parameters φ.
+    pub critic: Vec<f32>,
+    /// Target critic parameters φ⁻.
+    pub target: Vec<f32>,
+    /// Output scale of critic and target (Q = scale · network).
+    pub q_scale: f32,
+    /// Actor optimiser.
+    pub actor_opt: Adam,
+    /// Critic optimiser.
+    pub critic_opt: Adam,
+    /// ζ optimiser (Adam moments; unused by plain steps).
+    pub zeta_opt: Adam,
+    /// Recent on-policy visits of each state (exponential average), for idle relocation.
+    pub visits: Vec<f64>,
+}
+
+/// The learner.
+#[derive(Debug, Clone)]
+pub struct Learner {
+    cfg: AcConfig,
+    features: Features,
+    sets: ActionSets,
+    gamma: f64,
+    streams: Streams,
+    actor: Net,
+    critic: Net,
+    target: Net,
+    actor_opt: Adam,
+    critic_opt: Adam,
+    zeta_opt: Adam,
+    /// Recent on-policy visits per state.
+    visits: Vec<f64>,
+    /// States whose positions are read from ζ, with their ζ index.
+    zeta_states: Vec<(usize, usize)>,
+    zeta: Vec<f64>,
+    alpha: f64,
+    k: u64,
+    /// Reusable gradient buffers.
+    actor_grad: Vec<f32>,
+    critic_grad: Vec<f32>,
+}
+
+/// Flattened transitions of a batch.
+#[derive(Default)]
+struct Flat {
+    s: Vec<usize>,
+    a: Vec<usize>,
+    s2: Vec<usize>,
+    cost: Vec<f64>,
+    zeta: Vec<f64>,
+    on_policy: Vec<bool>,
+}
+
+impl Learner {
+    /// A fresh learner for `env` with design `zeta0`; networks are initialised from the `Init`
+    /// stream of `seed`.
+    pub fn new<E: Observable>(env: &E, cfg: AcConfig, seed: u64, zeta0: Vec<f64>) -> Self {
+        assert_eq!(zeta0.len(), env.zeta_dim(), "zeta0 dimension");
+        let mut features = Features::new(env, cfg.zeta_input, cfg.sigma);
+        features.set_center(&zeta0);
+        let sets = ActionSets::new(env);
+        let streams = Streams::new(seed);
+        let mut rng = streams.stream(Purpose::Init, 0, 0);
+        let actor = Net::new(&features, &cfg.hidden, &mut rng, true);
+        let critic = Net::new(&features, &cfg.hidden, &mut rng, cfg.critic_init == CriticInit::MeanReturn);
+        let target = critic.clone();
+        let actor_opt = Adam::new(actor.mlp.n_params(), cfg.actor_lr);
+        let critic_opt = Adam::new(critic.mlp.n_params(), cfg.critic_lr);
+        let alpha = cfg.alpha0;
+        let zeta_opt = Adam::new(zeta0.len(), cfg.zeta_lr);
+        let zeta_states = (0..env.n_states()).filter_map(|s| env.zeta_index(s).map(|i| (s, i))).collect();
+        Self {
+            zeta_opt,
+            visits: vec![0.0; env.n_states()],
+            zeta_states,
+            cfg,
+            features,
+            sets,
+            gamma: env.gamma(),
+            streams,
+            actor,
+            critic,
+            target,
+            actor_opt,
+            critic_opt,
+            zeta: zeta0,
+            alpha,
+            k: 0,
+            actor_grad: Vec::new(),
+            critic_grad: Vec::new(),
+        }
+    }
+
+    /// Iteration k of the next batch.
+    pub fn k(&self) -> u64 {
+        self.k
+    }
+    /// ζ_k.
+    pub fn zeta(&self) -> &[f64] {
+        &self.zeta
+    }
+    /// α_k.
+    pub fn alpha(&self) -> f64 {
+        self.alpha
+    }
+    /// The actor θ_k.
+    pub fn actor(&self) -> &Mlp<f32> {
+        &self.actor.mlp
+    }
+    /// The critic φ_k.
+    pub fn critic(&self) -> &Mlp<f32> {
+        &self.critic.mlp
+    }
+    /// The configuration.
+    pub fn config(&self) -> &AcConfig {
+        &self.cfg
+    }
+    /// The feature map.
+    pub fn features(&self) -> &Features {
+        &self.features
+    }
+    /// The valid-action table.
+    pub fn action_sets(&self) -> &ActionSets {
+        &self.sets
+    }
+
+    /// The learner's state for a checkpoint.
+    pub fn state(&self) -> LearnerState {
+        LearnerState {
+            k: self.k,
+            zeta: self.zeta.clone(),
+            alpha: self.alpha,
+            actor: self.actor.mlp.params().to_vec(),
+            critic: self.critic.mlp.params().to_vec(),
+            target: self.target.mlp.params().to_vec(),
+            q_scale: self.critic.scale(),
+            actor_opt: self.actor_opt.clone(),
+            critic_opt: self.critic_opt.clone(),
+            zeta_opt: self.zeta_opt.clone(),
+            visits: self.visits.clone(),
+        }
+    }
+
+    /// Restores a checkpointed state (same environment and configuration).
+    pub fn restore(&mut self, st: LearnerState) -> Result<(), String> {
+        let n_a = self.actor.mlp.n_params();
+        let n_c = self.critic.mlp.n_params();
+        if st.actor.len() != n_a || st.critic.len() != n_c || st.target.len() != n_c || st.zeta.len() != self.zeta.len()
+        {
+            return Err("checkpoint shapes do not match this configuration".into());
+        }
+        if st.actor_opt.m.len() != n_a || st.critic_opt.m.len() != n_c {
+            return Err("checkpoint optimiser shapes do not match this configuration".into());
+        }
+        self.actor.mlp.set_params(&st.actor);
+        self.critic.mlp.set_params(&st.critic);
+        self.target.mlp.set_params(&st.target);
+        self.critic.set_scale(st.q_scale);
+        self.target.set_scale(st.q_scale);
+        self.actor_opt = st.actor_opt;
+        self.critic_opt = st.critic_opt;
+        self.zeta_opt = st.zeta_opt;
+        if st.visits.len() != self.visits.len() {
+            return Err("checkpoint visit counts do not match this environment".into());
+        }
+        self.visits = st.visits;
+        self.zeta = st.zeta;
+        self.features.set_center(&self.zeta);
+        self.alpha = st.alpha;
+        self.k = st.k;
+        Ok(())
+    }
+
+    /// The critic's Q_φ(s, a, ζ) over the valid actions of `s` (diagnostics and tests).
+    pub fn q_values(&mut self, s: usize, zeta: &[f64]) -> Vec<f64> {
+        let mut cols = Columns::default();
+        for &a in self.sets.of(s) {
+            cols.push(&self.features, s, a, zeta, 0);
+        }
+        let mut q = Vec::new();
+        self.critic.values(&cols, &mut q);
+        q.iter().map(|&x| x as f64).collect()
+    }
+
+    /// π_θk(·|·, ζ_k): what the workers sample from (rows are filled on demand).
+    pub fn policy_table(&self) -> PolicyTable {
+        PolicyTable::new(&self.actor.mlp, &self.features, &self.sets, &self.zeta)
+    }
+
+    fn flatten(&self, batch: &Batch) -> Result<Flat, LearnerError> {
+        let want: Vec<(EpisodeKind, u64)> = episode_ids(&self.cfg).collect();
+        let got: Vec<(EpisodeKind, u64)> = batch.episodes.iter().map(|e| (e.kind(), e.index as u64)).collect();
+        if want != got {
+            return Err(LearnerError::Episodes(format!(
+                "expected {} episodes in order, got {:?}…",
+                want.len(),
+                &got[..got.len().min(8)]
+            )));
+        }
+        let d = self.zeta.len();
+        let n_states = self.sets.n_states();
+        let mut f = Flat::default();
+        for ep in &batch.episodes {
+            let bad = |reason: String| LearnerError::Transition { episode: ep.index, reason };
+            let n = ep.len();
+            if ep.a.len() != n || ep.s2.len() != n || ep.cost.len() != n || ep.zeta.len() != n * d {
+                return Err(bad("ragged arrays".into()));
+            }
+            for t in 0..n {
+                let (s, a, s2) = (ep.s[t] as usize, ep.a[t] as usize, ep.s2[t] as usize);
+                if s >= n_states || s2 >= n_states || !self.sets.of(s).contains(&a) {
+                    return Err(bad(format!("step {t}: ({s}, {a}, {s2}) is not a valid transition")));
+                }
+                let c = ep.cost[t] as f64;
+                let z = &ep.zeta[t * d..(t + 1) * d];
+                if !c.is_finite() || z.iter().any(|z| !z.is_finite()) {
+                    return Err(bad(format!("step {t}: non-finite cost or design")));
+                }
+                f.s.push(s);
+                f.a.push(a);
+                f.s2.push(s2);
+                f.cost.push(c);
+                f.zeta.extend(z.iter().map(|&z| z as f64));
+                f.on_policy.push(!ep.explore);
+            }
+        }
+        Ok(f)
+    }
+
+    /// One iteration of Algorithm 1 on the episodes generated with θ_k at ζ_k.
+    pub fn update(&mut self, batch: &Batch) -> Result<Stats, LearnerError> {
+        if batch.k != self.k {
+            return Err(LearnerError::WrongIteration { expected: self.k, got: batch.k });
+        }
+        let flat = self.flatten(batch)?;
+        let cfg = self.cfg.clone();
+        let d = self.zeta.len();
+        let alpha = self.alpha;
+        let mut table = self.policy_table();
+        let on: Vec<&Episode> = batch.episodes.iter().filter(|e| !e.explore).collect();
+        let n_on = on.len() as f64;
+        let mut stats = Stats { k: self.k, alpha, transitions: flat.s.len(), ..Default::default() };
+        for ep in &on {
+            let mut ret = 0.0;
+            let mut ret_h = 0.0;
+            for t in 0..ep.len() {
+                let s = ep.s[t] as usize;
+                let i = self.sets.of(s).iter().position(|&a| a == ep.a[t] as usize).expect("validated");
+                ret += ep.cost[t] as f64;
+                ret_h += ep.cost[t] as f64 + alpha * table.of(s)[i].ln();
+            }
+            stats.j_estimate += ret / n_on;
+            stats.j_h_estimate += ret_h / n_on;
+            stats.mean_len += ep.len() as f64 / n_on;
+        }
+        stats.capped = batch.episodes.iter().filter(|e| e.capped).count();
+        if self.k == 0 && cfg.critic_init == CriticInit::MeanReturn && stats.j_estimate.abs() > 0.0 {
+            // Q = R̄·network with the network starting at 1: neither optimistic nor collapsing,
+            // and O(1) network outputs whatever the scale of the costs.
+            let scale = stats.j_estimate.abs() as f32;
+            for net in [&mut self.critic, &mut self.target] {
+                net.set_scale(scale);
+                net.mlp.set_output_bias(stats.j_estimate.signum() as f32);
+            }
+        }
+        if !flat.s.is_empty() {
+            let ln_pi = self.log_pi_at_pert(&flat);
+            for step in 0..cfg.critic_steps {
+                stats.critic_loss = self.critic_step(&flat, &ln_pi, &mut table, step);
+            }
+        }
+        let capped_on = on.iter().filter(|e| e.capped).count();
+        let looping = cfg.loop_tolerance < 1.0 && capped_on as f64 > cfg.loop_tolerance * on.len() as f64;
+        stats.looping = looping;
+        // The EnvPG estimate is for π_θk: take it before the actor moves.
+        let grad = if self.k >= cfg.warmup as u64 && !on.is_empty() && !looping {
+            Some(self.zeta_gradient(&on))
+        } else {
+            None
+        };
+        if !flat.s.is_empty() {
+            for step in 0..cfg.actor_steps {
+                stats.actor_loss = match cfg.actor_update {
+                    ActorUpdate::GibbsFit => self.actor_gibbs_step(&flat, step),
+                    ActorUpdate::Pg => self.actor_pg_step(&on),
+                };
+            }
+        }
+        if let Some(g) = grad {
+            let norm = g.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let clip = if cfg.zeta_clip > 0.0 && norm > cfg.zeta_clip { cfg.zeta_clip / norm } else { 1.0 };
+            let lr = cfg.zeta_lr * cfg.zeta_lr_decay.powf((self.k - cfg.warmup as u64) as f64);
+            match cfg.zeta_optimizer {
+                ZetaOptimizer::Sgd => {
+                    for (z, gi) in self.zeta.iter_mut().zip(&g) {
+                        *z -= lr * clip * gi;
+                    }
+                }
+                ZetaOptimizer::Adam => {
+                    self.zeta_opt.lr = lr;
+                    let clipped: Vec<f64> = g.iter().map(|x| x * clip).collect();
+                    self.zeta_opt.step(&mut self.zeta, &clipped);
+                }
+            }
+            stats.grad_norm = Some(norm);
+            stats.zeta_grad = Some(g);
+            self.features.set_center(&self.zeta);
+        }
+        stats.relocated = self.track_and_relocate(&on);
+        debug_assert_eq!(self.zeta.len(), d);
+        self.k += 1;
+        self.alpha *= cfg.upsilon() * if looping { cfg.alpha_backoff } else { 1.0 };
+        Ok(stats)
+    }
+
+    /// Updates the visit averages with this iteration's on-policy states and, on schedule,
+    /// moves the least-visited idle design element to the midpoint of the costliest on-policy
+    /// hop of this iteration. The move is J-neutral (an unvisited UAV contributes nothing to J)
+    /// and offers a relay exactly where one saves the most; a midpoint keeps it away from both
+    /// ends, so it cannot form a cheap loop that the entropy term would reward.
+    fn track_and_relocate(&mut self, on: &[&Episode]) -> Option<u32> {
+        const DECAY: f64 = 0.95;
+        self.visits.iter_mut().for_each(|v| *v *= DECAY);
+        let w = (1.0 - DECAY) / on.len().max(1) as f64;
+        for ep in on {
+            for &s in &ep.s {
+                self.visits[s as usize] += w;
+            }
+        }
+        let every = self.cfg.relocate_every as u64;
+        if every == 0 || self.k < self.cfg.warmup as u64 || (self.k - self.cfg.warmup as u64) % every != every - 1 {
+            return None;
+        }
+        let busy_v = self.zeta_states.iter().map(|&(s, _)| self.visits[s]).fold(0.0, f64::max);
+        let (idle, idle_v) =
+            self.zeta_states.iter().map(|&(s, i)| ((s, i), self.visits[s])).min_by(|a, b| a.1.total_cmp(&b.1))?;
+        if busy_v <= 0.0 || idle_v >= self.cfg.relocate_below * busy_v {
+            return None;
+        }
+        // The costliest on-policy hop (observed cost; ends' positions are observable).
+        let mut best: Option<(f64, usize, usize)> = None;
+        for ep in on {
+            for t in 0..ep.len() {
+                let c = ep.cost[t] as f64;
+                if best.is_none_or(|b| c > b.0) {
+                    best = Some((c, ep.s[t] as usize, ep.s2[t] as usize));
+                }
+            }
+        }
+        let (_, from, to) = best?;
+        let (a, b) = (self.features.position(from, &self.zeta), self.features.position(to, &self.zeta));
+        for c in 0..2 {
+            self.zeta[idle.1 + c] = 0.5 * (a[c] + b[c]);
+            self.zeta_opt.m[idle.1 + c] = 0.0;
+            self.zeta_opt.v[idle.1 + c] = 0.0;
+        }
+        self.visits[idle.0] = self.cfg.relocate_below * busy_v;
+        self.features.set_center(&self.zeta);
+        Some(idle.0 as u32)
+    }
+
+    /// ln π_θk(a_i|s_i, ζ_pert,i) for every transition (the entropy term of the TD targets).
+    fn log_pi_at_pert(&mut self, f: &Flat) -> Vec<f64> {
+        let d = self.zeta.len();
+        let mut cols = Columns::default();
+        for i in 0..f.s.len() {
+            for &a in self.sets.of(f.s[i]) {
+                cols.push(&self.features, f.s[i], a, &f.zeta[i * d..(i + 1) * d], i as u32);
+            }
+        }
+        let mut logits = Vec::new();
+        self.actor.values(&cols, &mut logits);
+        let mut out = Vec::with_capacity(f.s.len());
+        let mut probs = Vec::new();
+        let mut c = 0;
+        for i in 0..f.s.len() {
+            let acts = self.sets.of(f.s[i]);
+            probs.resize(acts.len(), 0.0);
+            softmax(&logits[c..c + acts.len()], &mut probs);
+            let k = acts.iter().position(|&a| a == f.a[i]).expect("validated");
+            out.push(probs[k].max(f64::MIN_POSITIVE).ln());
+            c += acts.len();
+        }
+        out
+    }
+
+    /// `V⁻(s') = Σ_a' π_θk(a'|s', ζ_k) Q_φ⁻(s', a', ζ_k)` for the given states.
+    fn target_values(&mut self, states: &[usize], table: &mut PolicyTable) -> Vec<f64> {
+        let mut cols = Columns::default();
+        for &s in states {
+            for &a in self.sets.of(s) {
+                cols.push(&self.features, s, a, &self.zeta, 0);
+            }
+        }
+        let mut q = Vec::new();
+        self.target.values(&cols, &mut q);
+        let mut c = 0;
+        states
+            .iter()
+            .map(|&s| {
+                let p = table.of(s);
+                let v = p.iter().zip(&q[c..c + p.len()]).map(|(p, q)| p * *q as f64).sum();
+                c += p.len();
+                v
+            })
+            .collect()
+    }
+
+    /// Minibatch indices for learner purpose `(k, j)`: `min(N, n)` distinct transitions of the
+    /// iteration's buffer (all of them, shuffled, when the buffer is smaller than N).
+    fn minibatch(&self, n: usize, j: u64) -> Vec<usize> {
+        let mut rng = self.streams.stream(Purpose::Minibatch, self.k, j);
+        let take = self.cfg.batch.min(n);
+        // Partial Fisher–Yates: the first `take` entries are a uniform sample without replacement.
+        let mut idx: Vec<usize> = (0..n).collect();
+        for i in 0..take {
+            let j = rng.random_range(i..n);
+            idx.swap(i, j);
+        }
+        idx.truncate(take);
+        idx
+    }
+
+    /// One TD step of the critic and a Polyak update of the target; returns the loss.
+    fn critic_step(&mut self, f: &Flat, ln_pi: &[f64], table: &mut PolicyTable, step: usize) -> f64 {
+        let d = self.zeta.len();
+        let idx = self.minibatch(f.s.len(), step as u64);
+        // Distinct non-terminal successors, in first-seen order.
+        let mut next_states: Vec<usize> = Vec::new();
+        for &i in &idx {
+            let s2 = f.s2[i];
+            if !self.sets.terminal(s2) && !next_states.contains(&s2) {
+                next_states.push(s2);
+            }
+        }
+        let v = self.target_values(&next_states, table);
+        let mut cols = Columns::default();
+        let mut y = Vec::with_capacity(idx.len());
+        for &i in &idx {
+            let s2 = f.s2[i];
+            let boot = if self.sets.terminal(s2) {
+                0.0
+            } else {
+                v[next_states.iter().position(|&x| x == s2).expect("listed")]
+            };
+            y.push(f.cost[i] + self.alpha * ln_pi[i] + self.gamma * boot);
+            cols.push(&self.features, f.s[i], f.a[i], &f.zeta[i * d..(i + 1) * d], i as u32);
+        }
+        let mut q = Vec::new();
+        self.critic.eval(&cols, &mut q);
+        let n = idx.len() as f64;
+        let mut loss = 0.0;
+        let dq: Vec<f32> = q
+            .iter()
+            .zip(&y)
+            .map(|(&q, &y)| {
+                let e = q as f64 - y;
+                loss += e * e / n;
+                (2.0 * e / n) as f32
+            })
+            .collect();
+        let mut grad = std::mem::take(&mut self.critic_grad);
+        grad.clear();
+        grad.resize(self.critic.mlp.n_params(), 0.0);
+        self.critic.backprop(&cols, &dq, Some(&mut grad), None);
+        self.critic_opt.step(self.critic.mlp.params_mut(), &grad);
+        self.critic_grad = grad;
+        let tau = self.cfg.polyak as f32;
+        let src = self.critic.mlp.params().to_vec();
+        for (t, s) in self.target.mlp.params_mut().iter_mut().zip(&src) {
+            *t = tau * s + (1.0 - tau) * *t;
+        }
+        loss
+    }
+
+    /// Cross-entropy fit of π_θ(·|s, ζ_pert) to the critic's Gibbs policy
+    /// `∝ π_θ(a|s) exp(−Q_φ(s,a,ζ_pert)/α)` (Q_φ includes the current step's α ln π term, so this
+    /// is `∝ exp(−Q̃/α)` with Q̃ the entropy-free action value).
+    fn actor_gibbs_step(&mut self, f: &Flat, step: usize) -> f64 {
+        let d = self.zeta.len();
+        let idx = self.minibatch(f.s.len(), (self.cfg.critic_steps + step) as u64);
+        let mut cols = Columns::default();
+        for &i in &idx {
+            for &a in self.sets.of(f.s[i]) {
+                cols.push(&self.features, f.s[i], a, &f.zeta[i * d..(i + 1) * d], i as u32);
+            }
+        }
+        let (mut logits, mut q) = (Vec::new(), Vec::new());
+        self.actor.eval(&cols, &mut logits);
+        self.critic.values(&cols, &mut q);
+        let n = idx.len() as f64;
+        let mut dlogit = vec![0.0f32; cols.len()];
+        let mut loss = 0.0;
+        let (mut pi, mut target, mut z) = (Vec::new(), Vec::new(), Vec::new());
+        let mut c = 0;
+        for &i in &idx {
+            let m = self.sets.of(f.s[i]).len();
+            let r = c..c + m;
+            pi.resize(m, 0.0);
+            softmax(&logits[r.clone()], &mut pi);
+            z.clear();
+            z.extend(r.clone().map(|j| logits[j] - (q[j] as f64 / self.alpha) as f32));
+            target.resize(m, 0.0);
+            softmax(&z, &mut target);
+            for (j, col) in r.clone().enumerate() {
+                dlogit[col] = ((pi[j] - target[j]) / n) as f32;
+                if target[j] > 0.0 {
+                    loss -= target[j] * pi[j].max(f64::MIN_POSITIVE).ln() / n;
+                }
+            }
+            c += m;
+        }
+        self.actor_apply(&cols, &dlogit);
+        loss
+    }
+
+    /// The paper's entropy-regularised policy gradient on the on-policy episodes at ζ_k:
+    /// `∇θ J_H ≈ (1/M) Σ_episodes Σ_t (Q_φ(s_t,a_t,ζ_k) + α) ∇θ ln π_θ(a_t|s_t,ζ_k)`.
+    fn actor_pg_step(&mut self, on: &[&Episode]) -> f64 {
+        let zeta = self.zeta.clone();
+        let (cols, taken) = self.on_policy_columns(on, &zeta);
+        let (mut logits, mut q) = (Vec::new(), Vec::new());
+        self.actor.eval(&cols, &mut logits);
+        self.critic.values(&cols, &mut q);
+        let m_eps = on.len() as f64;
+        let mut dlogit = vec![0.0f32; cols.len()];
+        let mut surrogate = 0.0;
+        let mut pi = Vec::new();
+        for &(r_start, m, k_taken) in &taken {
+            pi.resize(m, 0.0);
+            softmax(&logits[r_start..r_start + m], &mut pi);
+            let w = q[r_start + k_taken] as f64 + self.alpha;
+            surrogate += w * pi[k_taken].max(f64::MIN_POSITIVE).ln() / m_eps;
+            for j in 0..m {
+                let ind = if j == k_taken { 1.0 } else { 0.0 };
+                dlogit[r_start + j] = (w * (ind - pi[j]) / m_eps) as f32;
+            }
+        }
+        self.actor_apply(&cols, &dlogit);
+        surrogate
+    }
+
+    /// Backpropagates `dlogit` through the actor's last evaluation and takes an Adam step.
+    fn actor_apply(&mut self, cols: &Columns, dlogit: &[f32]) {
+        let mut grad = std::mem::take(&mut self.actor_grad);
+        grad.clear();
+        grad.resize(self.actor.mlp.n_params(), 0.0);
+        self.actor.backprop(cols, dlogit, Some(&mut grad), None);
+        self.actor_opt.step(self.actor.mlp.params_mut(), &grad);
+        self.actor_grad = grad;
+    }
+
+    /// Columns of every valid action of every on-policy step at `zeta`, and per step
+    /// `(first column, number of actions, index of the taken action)`.
+    fn on_policy_columns(&self, on: &[&Episode], zeta: &[f64]) -> (Columns, Vec<(usize, usize, usize)>) {
+        let mut cols = Columns::default();
+        let mut taken = Vec::new();
+        for ep in on {
+            for t in 0..ep.len() {
+                let s = ep.s[t] as usize;
+                let acts = self.sets.of(s);
+                let start = cols.len();
+                for &a in acts {
+                    cols.push(&self.features, s, a, zeta, 0);
+                }
+                let k = acts.iter().position(|&a| a == ep.a[t] as usize).expect("validated");
+                taken.push((start, acts.len(), k));
+            }
+        }
+        (cols, taken)
+    }
+
+    /// The EnvPG estimate of ∇ζ J_H(π_θk, ζ_k) from the on-policy episodes (eq. entropy_envpg),
+    /// averaged over episodes, with the configured per-step estimator.
+    pub fn zeta_gradient(&mut self, on: &[&Episode]) -> Vec<f64> {
+        self.zeta_gradient_with(on, self.cfg.zeta_estimator)
+    }
+
+    /// [`Learner::zeta_gradient`] with an explicit estimator (for variance studies).
+    pub fn zeta_gradient_with(&mut self, on: &[&Episode], estimator: ZetaEstimator) -> Vec<f64> {
+        let zeta = self.zeta.clone();
+        let d = zeta.len();
+        let (cols, taken) = self.on_policy_columns(on, &zeta);
+        let (mut logits, mut q) = (Vec::new(), Vec::new());
+        self.actor.eval(&cols, &mut logits);
+        self.critic.eval(&cols, &mut q);
+        let scale = 1.0 / on.len() as f64;
+        let mut d_critic = vec![0.0f32; cols.len()];
+        let mut d_actor = vec![0.0f32; cols.len()];
+        let mut pi = Vec::new();
+        for &(r0, m, kt) in &taken {
+            pi.resize(m, 0.0);
+            softmax(&logits[r0..r0 + m], &mut pi);
+            let qs: Vec<f64> = (0..m).map(|j| q[r0 + j] as f64).collect();
+            let v: f64 = (0..m).map(|j| pi[j] * qs[j]).sum();
+            for j in 0..m {
+                let ind = if j == kt { 1.0 } else { 0.0 };
+                let (dc, da) = match estimator {
+                    ZetaEstimator::Sampled => (ind, (ind - pi[j]) * qs[kt]),
+                    ZetaEstimator::Baseline => (ind, (ind - pi[j]) * (qs[kt] - v)),
+                    ZetaEstimator::Expected => (pi[j], pi[j] * (qs[j] - v)),
+                    ZetaEstimator::Corollary => (pi[j], 0.0),
+                };
+                d_critic[r0 + j] = dc as f32;
+                d_actor[r0 + j] = da as f32;
+            }
+        }
+        let mut g = vec![0.0; d];
+        let dense = cols.dense_dim();
+        for (net, dout) in [(&self.critic, &d_critic), (&self.actor, &d_actor)] {
+            let mut di = Vec::new();
+            net.backprop(&cols, dout, None, Some(&mut di));
+            for (c, &(s, a)) in cols.sa.iter().enumerate() {
+                self.features.chain(s as usize, a as usize, &zeta, &di[c * dense..(c + 1) * dense], scale, &mut g);
+            }
+        }
+        g
+    }
+}

@@ -1,0 +1,36 @@
+//! # envpg-ac
+//!
+//! Algorithm 1 of the paper, the EnvPG actor–critic, kept apart from the processes that run it.
+//!
+//! ## Main types
+//! - [`AcConfig`]: every setting, with defaults, validation and TOML presets.
+//! - [`Features`]: network inputs of (s, a, ζ) and the chain rule back to ζ.
+//! - [`PolicyTable`]: π_θk(·|s, ζ_k) for all states — what rollouts sample from.
+//! - [`rollout::run_episode`]: the worker algorithm; touches the environment only through
+//!   `ParamMdp::step`, with one RNG stream per (seed, k, episode).
+//! - [`Learner`]: the learner algorithm, `update(&Batch) -> Stats`: critic TD steps with a
+//!   target critic, the EnvPG ζ-gradient estimate, the actor step, the ζ step, α decay.
+//! - [`trainer::train`]: the serial (in-process) wiring of rollouts and learner, with history
+//!   and the result file.
+//!
+//! ## Data flow
+//! learner state (θ_k, ζ_k, α_k) → [`PolicyTable`] → episodes (worker) → [`Batch`] ordered by
+//! episode index → [`Learner::update`] → (θ_{k+1}, φ_{k+1}, ζ_{k+1}, α_{k+1}).
+
+pub mod config;
+pub mod exact;
+pub mod features;
+pub mod learner;
+pub mod nets;
+pub mod rollout;
+pub mod study;
+pub mod table;
+pub mod trainer;
+pub mod zeta0;
+
+pub use config::{AcConfig, ActorUpdate, CriticInit, Zeta0, ZetaEstimator, ZetaOptimizer};
+pub use features::{Features, ZetaInput};
+pub use learner::{Batch, Learner, LearnerError, LearnerState, Stats};
+pub use nets::ActionSets;
+pub use rollout::{Episode, EpisodeKind};
+pub use table::PolicyTable;

@@ -1,0 +1,197 @@
+//! Actor and critic evaluation in batches of *columns*: one column per (state, action, ζ).
+//!
+//! The actor f_θ(s, a, ζ) gives one logit per column; π_θ(·|s, ζ) is the softmax over the
+//! columns of the valid actions of s (a *query*). The critic Q_φ(s, a, ζ) gives one value per
+//! column. Both are [`Mlp`]s in f32 over [`Features`].
+
+use envpg_core::ParamMdp;
+use envpg_nn::{Cache, Inputs, Mlp, MlpSpec};
+use rand::Rng;
+
+use crate::features::Features;
+
+/// The valid actions of every state, flattened (copied out of the environment once).
+#[derive(Debug, Clone)]
+pub struct ActionSets {
+    start: Vec<usize>,
+    actions: Vec<usize>,
+    terminal: Vec<bool>,
+}
+
+impl ActionSets {
+    /// Reads the valid actions of every state of `env`.
+    pub fn new<E: ParamMdp>(env: &E) -> Self {
+        let mut start = vec![0];
+        let mut actions = Vec::new();
+        let mut terminal = Vec::new();
+        for s in 0..env.n_states() {
+            actions.extend_from_slice(env.valid_actions(s));
+            start.push(actions.len());
+            terminal.push(env.is_terminal(s));
+        }
+        Self { start, actions, terminal }
+    }
+    /// Valid actions of `s`.
+    #[inline]
+    pub fn of(&self, s: usize) -> &[usize] {
+        &self.actions[self.start[s]..self.start[s + 1]]
+    }
+    /// Index of the first pair of `s` in the flattened layout.
+    #[inline]
+    pub fn first(&self, s: usize) -> usize {
+        self.start[s]
+    }
+    /// Number of states.
+    pub fn n_states(&self) -> usize {
+        self.terminal.len()
+    }
+    /// Total number of state–action pairs.
+    pub fn n_pairs(&self) -> usize {
+        self.actions.len()
+    }
+    /// Whether `s` is terminal.
+    #[inline]
+    pub fn terminal(&self, s: usize) -> bool {
+        self.terminal[s]
+    }
+}
+
+/// A batch of network columns.
+#[derive(Debug, Clone, Default)]
+pub struct Columns {
+    onehot: Vec<u32>,
+    dense: Vec<f32>,
+    /// (state, action) of each column.
+    pub sa: Vec<(u32, u32)>,
+    /// Which ζ (index into the caller's list) each column was built at.
+    pub zeta_id: Vec<u32>,
+    dense_dim: usize,
+}
+
+impl Columns {
+    /// Empties the batch.
+    pub fn clear(&mut self) {
+        self.onehot.clear();
+        self.dense.clear();
+        self.sa.clear();
+        self.zeta_id.clear();
+    }
+    /// Number of columns.
+    pub fn len(&self) -> usize {
+        self.sa.len()
+    }
+    /// Whether there are no columns.
+    pub fn is_empty(&self) -> bool {
+        self.sa.is_empty()
+    }
+    /// Appends the column `(s, a, zeta)`; `zeta_id` names `zeta` for [`Columns::zeta_id`].
+    pub fn push(&mut self, f: &Features, s: usize, a: usize, zeta: &[f64], zeta_id: u32) {
+        self.dense_dim = f.dense_dim();
+        self.onehot.push(s as u32);
+        self.onehot.push(a as u32);
+        let base = self.dense.len();
+        self.dense.resize(base + self.dense_dim, 0.0);
+        f.write(s, a, zeta, &mut self.dense[base..]);
+        self.sa.push((s as u32, a as u32));
+        self.zeta_id.push(zeta_id);
+    }
+    /// The network inputs.
+    pub fn inputs(&self) -> Inputs<'_, f32> {
+        Inputs { onehot: &self.onehot, dense: &self.dense, batch: self.sa.len() }
+    }
+    /// Dense features per column.
+    pub fn dense_dim(&self) -> usize {
+        self.dense_dim
+    }
+}
+
+/// One network with its forward cache and a fixed output scale: the value it reports is
+/// `scale · mlp(x)`, so a critic whose returns are in the hundreds still works with O(1)
+/// network outputs (Adam moves each weight by at most ~lr per step).
+#[derive(Debug, Clone)]
+pub struct Net {
+    /// The MLP.
+    pub mlp: Mlp<f32>,
+    cache: Cache<f32>,
+    scale: f32,
+}
+
+impl Net {
+    /// A fresh network over `features`; `zero_output` starts it at a constant.
+    pub fn new<R: Rng + ?Sized>(features: &Features, hidden: &[usize], rng: &mut R, zero_output: bool) -> Self {
+        let spec = MlpSpec { onehot: features.onehot(), dense: features.dense_dim(), hidden: hidden.to_vec() };
+        Self { mlp: Mlp::new(spec, rng, zero_output), cache: Cache::default(), scale: 1.0 }
+    }
+
+    /// The output scale.
+    pub fn scale(&self) -> f32 {
+        self.scale
+    }
+
+    /// Sets the output scale.
+    pub fn set_scale(&mut self, scale: f32) {
+        self.scale = scale;
+    }
+
+    /// Wraps existing parameters.
+    pub fn from_mlp(mlp: Mlp<f32>) -> Self {
+        Self { mlp, cache: Cache::default(), scale: 1.0 }
+    }
+
+    /// Evaluates every column into `out`, keeping the activations for [`Net::backprop`].
+    pub fn eval(&mut self, cols: &Columns, out: &mut Vec<f32>) {
+        out.clear();
+        out.resize(cols.len(), 0.0);
+        if !cols.is_empty() {
+            self.mlp.forward(&cols.inputs(), &mut self.cache, out);
+            if self.scale != 1.0 {
+                out.iter_mut().for_each(|o| *o *= self.scale);
+            }
+        }
+    }
+
+    /// Evaluates every column into `out` without keeping activations (no [`Net::backprop`]
+    /// afterwards): cheaper when only the values are needed.
+    pub fn values(&self, cols: &Columns, out: &mut Vec<f32>) {
+        out.clear();
+        out.resize(cols.len(), 0.0);
+        if !cols.is_empty() {
+            self.mlp.eval(&cols.inputs(), out);
+            if self.scale != 1.0 {
+                out.iter_mut().for_each(|o| *o *= self.scale);
+            }
+        }
+    }
+
+    /// Backpropagates `dout` (per column) through the last [`Net::eval`] of `cols`: adds the
+    /// parameter gradient into `grad` and writes dense-input gradients into `dinput`.
+    pub fn backprop(&self, cols: &Columns, dout: &[f32], grad: Option<&mut [f32]>, dinput: Option<&mut Vec<f32>>) {
+        if cols.is_empty() {
+            return;
+        }
+        let di = dinput.map(|v| {
+            v.clear();
+            v.resize(cols.len() * cols.dense_dim(), 0.0);
+            v.as_mut_slice()
+        });
+        if self.scale == 1.0 {
+            self.mlp.backward(&cols.inputs(), &self.cache, dout, grad, di);
+        } else {
+            let scaled: Vec<f32> = dout.iter().map(|d| d * self.scale).collect();
+            self.mlp.backward(&cols.inputs(), &self.cache, &scaled, grad, di);
+        }
+    }
+}
+
+/// Softmax of `logits` in f64, written into `out`.
+pub fn softmax(logits: &[f32], out: &mut [f64]) {
+    let mx = logits.iter().fold(f32::NEG_INFINITY, |m, &l| m.max(l)) as f64;
+    let mut z = 0.0;
+    for (o, &l) in out.iter_mut().zip(logits) {
+        *o = (l as f64 - mx).exp();
+        z += *o;
+    }
+    for o in out.iter_mut() {
+        *o /= z;
+    }
+}

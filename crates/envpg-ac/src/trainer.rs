@@ -1,0 +1,265 @@
+//! The serial wiring of Algorithm 1 — rollouts and learner in one process — plus the
+//! [`Recorder`] that every driver (in-process or distributed) uses to keep the history and
+//! write the result file.
+//!
+//! The recorder scores (ζ_k, greedy π_k) exactly every `eval_every` iterations with the model
+//! (`envpg-model`), for the history only: nothing it computes flows back into training.
+
+use std::time::Instant;
+
+use envpg_core::result::{HistoryRow, ResultFile, SCHEMA};
+use envpg_core::{Instance, ParamMdp, Streams, UavNetwork};
+use envpg_model::{Snapshot, evaluate};
+use serde::{Deserialize, Serialize};
+
+use crate::config::AcConfig;
+use crate::learner::{Batch, Learner, LearnerError, Stats};
+use crate::nets::ActionSets;
+use crate::rollout::run_iteration;
+use crate::table::PolicyTable;
+use crate::zeta0::initial_design;
+
+/// Everything that defines a run (and is stored in its result file).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunSpec {
+    /// The instance.
+    pub instance: Instance,
+    /// κ.
+    pub kappa: f64,
+    /// η.
+    pub eta: f64,
+    /// Seed.
+    pub seed: u64,
+    /// Algorithm settings.
+    pub config: AcConfig,
+}
+
+/// Why a run failed.
+#[derive(Debug, thiserror::Error)]
+pub enum TrainError {
+    /// Settings out of range.
+    #[error(transparent)]
+    Config(#[from] crate::config::ConfigError),
+    /// κ or η out of range.
+    #[error(transparent)]
+    Params(#[from] envpg_core::UavParamError),
+    /// The initial design is unusable.
+    #[error("initial design: {0}")]
+    Zeta0(String),
+    /// The learner refused a batch.
+    #[error(transparent)]
+    Learner(#[from] LearnerError),
+    /// The run was stopped.
+    #[error("stopped at iteration {0}")]
+    Stopped(u64),
+}
+
+impl RunSpec {
+    /// Validates and builds the environment, the initial design and a fresh learner.
+    pub fn start(&self) -> Result<(UavNetwork, Vec<f64>, Learner), TrainError> {
+        self.config.validate()?;
+        let net = UavNetwork::new(self.instance.clone(), self.kappa, self.eta)?;
+        let zeta0 = initial_design(&self.instance, &self.config.zeta0, self.seed).map_err(TrainError::Zeta0)?;
+        let learner = Learner::new(&net, self.config.clone(), self.seed, zeta0.clone());
+        Ok((net, zeta0, learner))
+    }
+}
+
+/// Progress of one iteration, for progress bars.
+#[derive(Debug, Clone)]
+pub struct Progress {
+    /// Iteration just completed.
+    pub k: u64,
+    /// Total iterations.
+    pub total: u64,
+    /// α used.
+    pub alpha: f64,
+    /// The learner's J_H estimate.
+    pub j_h_estimate: f64,
+    /// Transitions per second so far.
+    pub transitions_per_s: f64,
+    /// Latest exact J (history), if any.
+    pub j_exact: Option<f64>,
+}
+
+/// Keeps the history of a run and writes its result file.
+#[derive(Debug)]
+pub struct Recorder {
+    spec: RunSpec,
+    sets: ActionSets,
+    zeta0: Vec<f64>,
+    history: Vec<HistoryRow>,
+    transitions: u64,
+    capped: u64,
+    start: Instant,
+    last_exact: Option<f64>,
+}
+
+impl Recorder {
+    /// A recorder for `spec` starting from `zeta0`.
+    pub fn new(spec: &RunSpec, net: &UavNetwork, zeta0: &[f64]) -> Self {
+        Self {
+            spec: spec.clone(),
+            sets: ActionSets::new(net),
+            zeta0: zeta0.to_vec(),
+            history: Vec::new(),
+            transitions: 0,
+            capped: 0,
+            start: Instant::now(),
+            last_exact: None,
+        }
+    }
+
+    /// Resumes the history of a checkpointed run.
+    pub fn resume(&mut self, history: Vec<HistoryRow>, transitions: u64, capped: u64) {
+        self.history = history;
+        self.transitions = transitions;
+        self.capped = capped;
+        self.last_exact = self.history.iter().rev().find_map(|h| h.j_exact);
+    }
+
+    /// The history so far.
+    pub fn history(&self) -> &[HistoryRow] {
+        &self.history
+    }
+    /// Transitions so far.
+    pub fn transitions(&self) -> u64 {
+        self.transitions
+    }
+    /// Capped episodes so far.
+    pub fn capped(&self) -> u64 {
+        self.capped
+    }
+
+    /// Records iteration `stats.k`, run at `zeta_k` with policy `table`.
+    pub fn record(&mut self, net: &UavNetwork, zeta_k: &[f64], table: &mut PolicyTable, stats: &Stats) -> Progress {
+        self.transitions += stats.transitions as u64;
+        self.capped += stats.capped as u64;
+        let cfg = &self.spec.config;
+        let last = stats.k + 1 == cfg.iterations as u64;
+        let j_exact = if stats.k.is_multiple_of(cfg.eval_every as u64) || last {
+            let j = exact_greedy_j(net, &self.sets, zeta_k, table).ok();
+            self.last_exact = j.or(self.last_exact);
+            j
+        } else {
+            None
+        };
+        self.history.push(HistoryRow {
+            k: stats.k,
+            alpha: stats.alpha,
+            j_h_estimate: Some(stats.j_h_estimate),
+            grad_norm: stats.grad_norm,
+            zeta: zeta_k.to_vec(),
+            j_exact,
+            stats: Some(serde_json::json!({
+                "J_estimate": stats.j_estimate,
+                "critic_loss": stats.critic_loss,
+                "actor_loss": stats.actor_loss,
+                "mean_len": stats.mean_len,
+                "capped": stats.capped,
+                "transitions": stats.transitions,
+                "relocated": stats.relocated,
+                "looping": stats.looping,
+            })),
+        });
+        Progress {
+            k: stats.k,
+            total: cfg.iterations as u64,
+            alpha: stats.alpha,
+            j_h_estimate: stats.j_h_estimate,
+            transitions_per_s: self.transitions as f64 / self.start.elapsed().as_secs_f64().max(1e-9),
+            j_exact: self.last_exact,
+        }
+    }
+
+    /// The result file of the finished run: final ζ, greedy policy with its exact J, the soft
+    /// policy with its exact J_H at the final α.
+    pub fn finish(&self, net: &UavNetwork, learner: &Learner, method: &str, details: serde_json::Value) -> ResultFile {
+        let mut table = learner.policy_table();
+        let zeta = learner.zeta().to_vec();
+        let snap = Snapshot::build(net, &zeta);
+        let greedy = table.greedy();
+        let (j, j_error) = match evaluate(&snap, &greedy, 0.0) {
+            Ok(v) => (Some(v.j), None),
+            Err(e) => (None, Some(e.to_string())),
+        };
+        let alpha = learner.alpha();
+        let soft = table.full().to_vec();
+        let j_h = evaluate(&snap, &soft, alpha).ok().map(|v| v.j);
+        let seconds = self.start.elapsed().as_secs_f64();
+        let mut details = details;
+        if let Some(obj) = details.as_object_mut() {
+            obj.insert("transitions".into(), self.transitions.into());
+            obj.insert("capped_episodes".into(), self.capped.into());
+            obj.insert("transitions_per_s".into(), (self.transitions as f64 / seconds.max(1e-9)).into());
+            obj.insert("iterations".into(), learner.k().into());
+        }
+        ResultFile {
+            schema: SCHEMA.into(),
+            method: method.into(),
+            instance: self.spec.instance.clone(),
+            kappa: self.spec.kappa,
+            eta: self.spec.eta,
+            seed: self.spec.seed,
+            zeta,
+            zeta0: self.zeta0.clone(),
+            policy: rows(net, &self.sets, &greedy),
+            j,
+            j_error,
+            j_h,
+            alpha_final: Some(alpha),
+            policy_soft: Some(rows(net, &self.sets, &soft)),
+            seconds: Some(seconds),
+            config: Some(serde_json::to_value(&self.spec.config).expect("config serializes")),
+            details: Some(details),
+            history: Some(self.history.clone()),
+        }
+    }
+}
+
+/// Exact J of (ζ, greedy of `table`), for reporting.
+pub fn exact_greedy_j(
+    net: &UavNetwork,
+    sets: &ActionSets,
+    zeta: &[f64],
+    table: &mut PolicyTable,
+) -> Result<f64, envpg_model::ModelError> {
+    let snap = Snapshot::build(net, zeta);
+    debug_assert_eq!(snap.n_pairs(), sets.n_pairs());
+    Ok(evaluate(&snap, &table.greedy(), 0.0)?.j)
+}
+
+/// Result-file rows (users, then UAVs; M+1 actions) of a per-pair policy.
+pub fn rows(net: &UavNetwork, sets: &ActionSets, pairs: &[f64]) -> Vec<Vec<f64>> {
+    (0..net.n_users() + net.n_uav())
+        .map(|s| {
+            let mut row = vec![0.0; net.n_actions()];
+            for (i, &a) in sets.of(s).iter().enumerate() {
+                row[a] = pairs[sets.first(s) + i];
+            }
+            row
+        })
+        .collect()
+}
+
+/// Runs Algorithm 1 in this process: for each k, the policy table at (θ_k, ζ_k), all episodes
+/// of the iteration in index order, one learner update. `progress` sees every iteration and
+/// may stop the run by returning `false`.
+pub fn train(spec: &RunSpec, mut progress: impl FnMut(&Progress) -> bool) -> Result<ResultFile, TrainError> {
+    let (net, zeta0, mut learner) = spec.start()?;
+    let mut rec = Recorder::new(spec, &net, &zeta0);
+    let streams = Streams::new(spec.seed);
+    let sets = learner.action_sets().clone();
+    while (learner.k() as usize) < spec.config.iterations {
+        let k = learner.k();
+        let mut table = learner.policy_table();
+        let zeta_k = learner.zeta().to_vec();
+        let episodes = run_iteration(&net, &sets, &mut table, &zeta_k, &spec.config, &streams, k);
+        let stats = learner.update(&Batch { k, episodes })?;
+        let p = rec.record(&net, &zeta_k, &mut table, &stats);
+        if !progress(&p) {
+            return Err(TrainError::Stopped(k));
+        }
+    }
+    Ok(rec.finish(&net, &learner, "envpg-ac", serde_json::json!({ "mode": "in-process" })))
+}

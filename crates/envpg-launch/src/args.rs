@@ -1,0 +1,273 @@
+//! Command-line options of a training run, turned into a validated [`RunSpec`].
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+use envpg_ac::trainer::RunSpec;
+use envpg_ac::{AcConfig, ActorUpdate, CriticInit, Zeta0, ZetaEstimator, ZetaInput, ZetaOptimizer};
+use envpg_core::{Instance, ResultFile};
+
+/// The bundled preset file, compiled in so the binary works from any directory.
+pub const BUNDLED_PRESETS: &str = include_str!("../../../launch/presets.toml");
+
+/// What to train: problem, seed, preset and per-setting overrides.
+#[derive(Debug, Clone, Args)]
+pub struct TrainArgs {
+    /// Instance: `uav271` (bundled) or a path to an instance JSON file.
+    #[arg(long, default_value = "uav271")]
+    pub instance: String,
+    /// Probability κ ∈ (0, 1] that a hop reaches its intended target.
+    #[arg(long, default_value_t = 1.0)]
+    pub kappa: f64,
+    /// Concentration η ≥ 0 of off-target moves.
+    #[arg(long, default_value_t = 100.0)]
+    pub eta: f64,
+    /// Run seed: network initialisation, ζ₀, every episode and minibatch stream.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Preset name in the preset file.
+    #[arg(long, default_value = "uav")]
+    pub preset: String,
+    /// Preset file [default: the bundled launch/presets.toml].
+    #[arg(long)]
+    pub presets: Option<PathBuf>,
+    /// Outer iterations k_max.
+    #[arg(long)]
+    pub iterations: Option<usize>,
+    /// On-policy episodes per iteration M.
+    #[arg(long)]
+    pub episodes: Option<usize>,
+    /// Exploration episodes per iteration (train critic and actor only).
+    #[arg(long)]
+    pub explore_episodes: Option<usize>,
+    /// Uniform-action probability in exploration episodes.
+    #[arg(long)]
+    pub explore_eps: Option<f64>,
+    /// Fraction of exploration episodes with an exploring start.
+    #[arg(long)]
+    pub explore_start: Option<f64>,
+    /// Episode length cap.
+    #[arg(long)]
+    pub episode_cap: Option<usize>,
+    /// σ of the per-step perturbation of ζ.
+    #[arg(long)]
+    pub sigma: Option<f64>,
+    /// Hidden widths, e.g. `64,64`.
+    #[arg(long, value_delimiter = ',')]
+    pub hidden: Option<Vec<usize>>,
+    /// How ζ itself enters the networks: `centered` ((ζ − ζ_k)/L), `absolute`, `none`.
+    #[arg(long, value_enum)]
+    pub zeta_input: Option<ZetaInputArg>,
+    /// Critic learning rate.
+    #[arg(long)]
+    pub critic_lr: Option<f64>,
+    /// Critic steps per iteration.
+    #[arg(long)]
+    pub critic_steps: Option<usize>,
+    /// Minibatch size N.
+    #[arg(long)]
+    pub batch: Option<usize>,
+    /// Polyak rate τ of the target critic.
+    #[arg(long)]
+    pub polyak: Option<f64>,
+    /// Critic initialisation.
+    #[arg(long, value_enum)]
+    pub critic_init: Option<CriticInitArg>,
+    /// Actor learning rate.
+    #[arg(long)]
+    pub actor_lr: Option<f64>,
+    /// Actor steps per iteration.
+    #[arg(long)]
+    pub actor_steps: Option<usize>,
+    /// Actor update: `pg` (the paper's) or `gibbs-fit`.
+    #[arg(long, value_enum)]
+    pub actor_update: Option<ActorUpdateArg>,
+    /// Iterations before ζ moves.
+    #[arg(long)]
+    pub warmup: Option<usize>,
+    /// ζ step size ι.
+    #[arg(long)]
+    pub zeta_lr: Option<f64>,
+    /// ι decay factor per iteration after warm-up.
+    #[arg(long)]
+    pub zeta_lr_decay: Option<f64>,
+    /// Clip the ζ-gradient estimate's norm (0: off).
+    #[arg(long)]
+    pub zeta_clip: Option<f64>,
+    /// ζ-gradient estimator: `sampled` (the paper's), `baseline`, `expected`, `corollary`.
+    #[arg(long, value_enum)]
+    pub zeta_estimator: Option<ZetaEstimatorArg>,
+    /// Every this many iterations move one idle UAV next to the busiest one (0: never).
+    #[arg(long)]
+    pub relocate_every: Option<usize>,
+    /// Idle means a recent visit rate below this fraction of the busiest UAV's.
+    #[arg(long)]
+    pub relocate_below: Option<f64>,
+    /// Fraction of capped on-policy episodes above which the run is looping (1: ignore loops).
+    #[arg(long)]
+    pub loop_tolerance: Option<f64>,
+    /// α factor applied while looping.
+    #[arg(long)]
+    pub alpha_backoff: Option<f64>,
+    /// ζ update: `sgd` (the paper's step) or `adam`.
+    #[arg(long, value_enum)]
+    pub zeta_optimizer: Option<ZetaOptimizerArg>,
+    /// Initial temperature α₀.
+    #[arg(long)]
+    pub alpha0: Option<f64>,
+    /// Temperature factor per iteration υ (0: reach --alpha-final at the end).
+    #[arg(long)]
+    pub alpha_decay: Option<f64>,
+    /// Final temperature (when υ is automatic).
+    #[arg(long)]
+    pub alpha_final: Option<f64>,
+    /// Initial design: `random`, `users` (relay chain from the users' centroid to the
+    /// destination), 2M comma-separated numbers, or a result file (its `zeta0`).
+    #[arg(long)]
+    pub zeta0: Option<String>,
+    /// Record the exact J of (ζ_k, greedy π_k) every this many iterations (reporting only).
+    #[arg(long)]
+    pub eval_every: Option<usize>,
+}
+
+/// `--zeta-input`.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ZetaInputArg {
+    /// Not an input.
+    None,
+    /// Centred on ζ_k.
+    Centered,
+    /// Absolute.
+    Absolute,
+}
+
+/// `--zeta-optimizer`.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ZetaOptimizerArg {
+    /// Plain steps.
+    Sgd,
+    /// Adam.
+    Adam,
+}
+
+/// `--critic-init`.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum CriticInitArg {
+    /// Default initialisation.
+    Default,
+    /// Output bias at the first iteration's mean return.
+    MeanReturn,
+}
+
+/// `--actor-update`.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ActorUpdateArg {
+    /// The paper's policy gradient.
+    Pg,
+    /// Cross-entropy fit to the critic's Gibbs policy.
+    GibbsFit,
+}
+
+/// `--zeta-estimator`.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ZetaEstimatorArg {
+    /// The paper's estimator on the sampled action.
+    Sampled,
+    /// With the ζ-baseline.
+    Baseline,
+    /// Exact average over actions.
+    Expected,
+    /// The Gibbs corollary: policy held fixed.
+    Corollary,
+}
+
+impl TrainArgs {
+    /// The validated run specification.
+    pub fn spec(&self) -> Result<RunSpec> {
+        let instance = Instance::resolve(&self.instance)?;
+        let mut c = match &self.presets {
+            Some(p) => AcConfig::from_preset(p, &self.preset)?,
+            None => AcConfig::from_preset_str(
+                BUNDLED_PRESETS,
+                std::path::Path::new("<bundled presets.toml>"),
+                &self.preset,
+            )?,
+        };
+        macro_rules! set {
+            ($($f:ident),*) => { $( if let Some(v) = self.$f.clone() { c.$f = v; } )* };
+        }
+        set!(iterations, episodes, explore_episodes, explore_eps, explore_start, episode_cap, sigma, hidden);
+        set!(critic_lr, critic_steps, batch, polyak, actor_lr, actor_steps, warmup, zeta_lr, zeta_lr_decay);
+        set!(zeta_clip, alpha0, alpha_decay, alpha_final, eval_every, relocate_every, relocate_below);
+        set!(loop_tolerance, alpha_backoff);
+        if let Some(v) = self.zeta_input {
+            c.zeta_input = match v {
+                ZetaInputArg::None => ZetaInput::None,
+                ZetaInputArg::Centered => ZetaInput::Centered,
+                ZetaInputArg::Absolute => ZetaInput::Absolute,
+            };
+        }
+        if let Some(v) = self.zeta_optimizer {
+            c.zeta_optimizer = match v {
+                ZetaOptimizerArg::Sgd => ZetaOptimizer::Sgd,
+                ZetaOptimizerArg::Adam => ZetaOptimizer::Adam,
+            };
+        }
+        if let Some(v) = self.critic_init {
+            c.critic_init = match v {
+                CriticInitArg::Default => CriticInit::Default,
+                CriticInitArg::MeanReturn => CriticInit::MeanReturn,
+            };
+        }
+        if let Some(v) = self.actor_update {
+            c.actor_update = match v {
+                ActorUpdateArg::Pg => ActorUpdate::Pg,
+                ActorUpdateArg::GibbsFit => ActorUpdate::GibbsFit,
+            };
+        }
+        if let Some(v) = self.zeta_estimator {
+            c.zeta_estimator = match v {
+                ZetaEstimatorArg::Sampled => ZetaEstimator::Sampled,
+                ZetaEstimatorArg::Baseline => ZetaEstimator::Baseline,
+                ZetaEstimatorArg::Expected => ZetaEstimator::Expected,
+                ZetaEstimatorArg::Corollary => ZetaEstimator::Corollary,
+            };
+        }
+        if let Some(z) = &self.zeta0 {
+            c.zeta0 = parse_zeta0(z, &instance)?;
+        }
+        c.validate()?;
+        if !(self.kappa.is_finite() && self.kappa > 0.0 && self.kappa <= 1.0) {
+            bail!(envpg_core::UavParamError::Kappa(self.kappa));
+        }
+        if !(self.eta.is_finite() && self.eta >= 0.0) {
+            bail!(envpg_core::UavParamError::Eta(self.eta));
+        }
+        Ok(RunSpec { instance, kappa: self.kappa, eta: self.eta, seed: self.seed, config: c })
+    }
+}
+
+fn parse_zeta0(text: &str, instance: &Instance) -> Result<Zeta0> {
+    match text {
+        "random" => return Ok(Zeta0::Random),
+        "users" => return Ok(Zeta0::Users),
+        _ => {}
+    }
+    if std::path::Path::new(text).is_file() {
+        let r = ResultFile::load(text)?;
+        if r.instance != *instance {
+            bail!("--zeta0 {text}: computed on instance {:?}, not {:?}", r.instance.name, instance.name);
+        }
+        return Ok(Zeta0::Given(r.zeta0));
+    }
+    let z: Vec<f64> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--zeta0 {text:?}: expected random, users, a result file or numbers"))?;
+    if z.len() != instance.zeta_dim() || z.iter().any(|x| !x.is_finite()) {
+        bail!("--zeta0 needs {} finite numbers, got {}", instance.zeta_dim(), z.len());
+    }
+    Ok(Zeta0::Given(z))
+}

@@ -1,0 +1,59 @@
+//! `envpg-launch --in-process` end to end on a tiny budget, and its input errors.
+
+use std::process::Command;
+
+fn launch(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_envpg-launch")).args(args).output().expect("envpg-launch runs")
+}
+
+#[test]
+fn smoke_run_writes_a_result_that_rescoring_confirms() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r.json");
+    let o = launch(&[
+        "--in-process",
+        "--preset",
+        "smoke",
+        "--kappa",
+        "0.9",
+        "--seed",
+        "3",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = envpg_core::ResultFile::load(&out).unwrap();
+    assert_eq!(r.method, "envpg-ac");
+    assert_eq!((r.kappa, r.seed), (0.9, 3));
+    assert_eq!(r.history.as_ref().unwrap().len(), 30);
+    let cfg = r.config.as_ref().unwrap();
+    assert_eq!(cfg["iterations"], 30);
+    // The stored J is the exact J of the stored design and policy.
+    let net = envpg_core::UavNetwork::new(r.instance.clone(), r.kappa, r.eta).unwrap();
+    let snap = envpg_model::Snapshot::build(&net, &r.zeta);
+    let pi = envpg_model::uav::pairs_from_rows(&net, &snap, &r.policy).unwrap();
+    match (envpg_model::evaluate(&snap, &pi, 0.0), r.j) {
+        (Ok(v), Some(j)) => assert!((v.j - j).abs() < 1e-9 * j.max(1.0)),
+        (Err(_), None) => assert!(r.j_error.is_some()),
+        (a, b) => panic!("stored J {b:?} disagrees with {a:?}"),
+    }
+}
+
+#[test]
+fn bad_settings_exit_with_code_2_and_name_the_setting() {
+    let cases: &[(&[&str], &str)] = &[
+        (&["--in-process", "--kappa", "0"], "kappa"),
+        (&["--in-process", "--sigma=-1"], "sigma"),
+        (&["--in-process", "--alpha0", "NaN"], "alpha0"),
+        (&["--in-process", "--preset", "nope"], "no preset named"),
+        (&["--in-process", "--zeta0", "1,2,3"], "zeta0"),
+        (&["--in-process", "--no-such-flag"], "unexpected argument"),
+    ];
+    for (args, needle) in cases {
+        let o = launch(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}

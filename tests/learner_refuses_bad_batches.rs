@@ -1,0 +1,44 @@
+//! The learner checks every batch: wrong iteration, missing or reordered episodes and invalid
+//! transitions are refused with a clear error, and nothing changes.
+
+mod support;
+
+use envpg_ac::learner::{Batch, LearnerError};
+use envpg_ac::rollout::run_iteration;
+use envpg_core::Streams;
+
+#[test]
+fn malformed_batches_are_refused_without_side_effects() {
+    let spec = support::tiny_spec(1.0, 1, 10);
+    let (net, _, mut learner) = spec.start().unwrap();
+    let sets = learner.action_sets().clone();
+    let streams = Streams::new(1);
+    let mut table = learner.policy_table();
+    let zeta = learner.zeta().to_vec();
+    let episodes = run_iteration(&net, &sets, &mut table, &zeta, &spec.config, &streams, 0);
+    let before = learner.state();
+
+    let e = learner.update(&Batch { k: 3, episodes: episodes.clone() }).unwrap_err();
+    assert_eq!(e, LearnerError::WrongIteration { expected: 0, got: 3 });
+
+    let mut missing = episodes.clone();
+    missing.remove(2);
+    assert!(matches!(learner.update(&Batch { k: 0, episodes: missing }), Err(LearnerError::Episodes(_))));
+
+    let mut swapped = episodes.clone();
+    swapped.swap(0, 1);
+    assert!(matches!(learner.update(&Batch { k: 0, episodes: swapped }), Err(LearnerError::Episodes(_))));
+
+    let mut bad = episodes.clone();
+    bad[0].a[0] = 99;
+    let e = learner.update(&Batch { k: 0, episodes: bad }).unwrap_err();
+    assert!(e.to_string().contains("not a valid transition"), "{e}");
+
+    let mut nan = episodes.clone();
+    nan[1].cost[0] = f32::NAN;
+    assert!(matches!(learner.update(&Batch { k: 0, episodes: nan }), Err(LearnerError::Transition { .. })));
+
+    assert_eq!(learner.state(), before, "refused batches must not change the learner");
+    learner.update(&Batch { k: 0, episodes }).unwrap();
+    assert_eq!(learner.k(), 1);
+}
