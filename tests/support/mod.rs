@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod launch;
+
 use envpg_ac::AcConfig;
 use envpg_ac::trainer::RunSpec;
 use envpg_core::Instance;

@@ -92,6 +92,8 @@ pub struct Recorder {
     transitions: u64,
     capped: u64,
     start: Instant,
+    /// Seconds spent before this process (resumed runs).
+    earlier: f64,
     last_exact: Option<f64>,
 }
 
@@ -106,8 +108,19 @@ impl Recorder {
             transitions: 0,
             capped: 0,
             start: Instant::now(),
+            earlier: 0.0,
             last_exact: None,
         }
+    }
+
+    /// Adds time spent before a resume.
+    pub fn add_seconds(&mut self, s: f64) {
+        self.earlier += s;
+    }
+
+    /// Wall-clock seconds of the run so far (all processes).
+    pub fn seconds(&self) -> f64 {
+        self.earlier + self.start.elapsed().as_secs_f64()
     }
 
     /// Resumes the history of a checkpointed run.
@@ -186,7 +199,7 @@ impl Recorder {
         let alpha = learner.alpha();
         let soft = table.full().to_vec();
         let j_h = evaluate(&snap, &soft, alpha).ok().map(|v| v.j);
-        let seconds = self.start.elapsed().as_secs_f64();
+        let seconds = self.seconds();
         let mut details = details;
         if let Some(obj) = details.as_object_mut() {
             obj.insert("transitions".into(), self.transitions.into());

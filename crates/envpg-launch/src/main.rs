@@ -1,32 +1,103 @@
 //! `envpg-launch`: train with Algorithm 1.
 //!
-//! `--in-process` runs rollouts and learner in this process (`envpg_ac::trainer::train`).
+//! By default it supervises a learner process and `--workers N` rollout-worker processes linked
+//! by iceoryx2 shared memory (the same executable in the `learner` / `worker` roles);
+//! `--in-process` runs the same learner and worker code as threads of one process.
+//!
 //! Exit codes: 0 success, 1 the run failed, 2 bad input, 130 interrupted.
 
 mod args;
+mod in_process;
+mod roles;
+mod run_dir;
+mod supervise;
 
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
 use anyhow::{Context, Result};
-use clap::Parser;
+use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::run_dir::RunFile;
 
 /// Train a policy and the environment design together with the EnvPG actor–critic.
 #[derive(Debug, Parser)]
-#[command(name = "envpg-launch", version, about)]
+#[command(name = "envpg-launch", version, about, args_conflicts_with_subcommands = true)]
 struct Cli {
+    #[command(subcommand)]
+    role: Option<Role>,
     #[command(flatten)]
     train: args::TrainArgs,
-    /// Run rollouts and learner in this process.
+    #[command(flatten)]
+    launch: LaunchArgs,
+}
+
+/// How the run is executed.
+#[derive(Debug, clap::Args)]
+struct LaunchArgs {
+    /// Rollout-worker processes (threads with --in-process).
+    #[arg(long, default_value_t = 2)]
+    workers: usize,
+    /// Run learner and workers as threads of this process (no shared memory needed).
     #[arg(long)]
     in_process: bool,
     /// Write the result file (envpg.result.v1) here.
     #[arg(long, default_value = "envpg-result.json")]
-    out: std::path::PathBuf,
+    out: PathBuf,
+    /// Run directory for run.json and the checkpoint [default: a fresh directory under the
+    /// system temp dir].
+    #[arg(long)]
+    run_dir: Option<PathBuf>,
+    /// Checkpoint the learner every this many iterations (needs a run directory to resume from).
+    #[arg(long, default_value_t = 0)]
+    checkpoint_every: u64,
+    /// Continue the run in DIR from its last checkpoint (other options are taken from DIR).
+    #[arg(long, value_name = "DIR")]
+    resume: Option<PathBuf>,
+    /// Extra real compute per environment step in the workers, in microseconds (benchmarks).
+    #[arg(long, default_value_t = 0)]
+    emulator_cost_us: u64,
+    /// A worker silent for this long is presumed dead and its episodes go to others.
+    #[arg(long, default_value_t = 2000)]
+    worker_timeout_ms: u64,
+    /// Protocol version the workers announce (to test version checks).
+    #[arg(long, hide = true, default_value_t = envpg_protocol::PROTOCOL_VERSION)]
+    worker_protocol_version: u32,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+}
+
+#[derive(Debug, Subcommand)]
+enum Role {
+    /// (internal) The learner process of a run.
+    #[command(hide = true)]
+    Learner {
+        /// Run directory.
+        #[arg(long)]
+        run_dir: PathBuf,
+        /// Continue from the checkpoint.
+        #[arg(long)]
+        resume: bool,
+    },
+    /// (internal) A rollout-worker process of a run.
+    #[command(hide = true)]
+    Worker {
+        /// Run directory.
+        #[arg(long)]
+        run_dir: PathBuf,
+        /// Worker slot.
+        #[arg(long)]
+        worker_id: u32,
+        /// Incarnation of the slot.
+        #[arg(long, default_value_t = 1)]
+        incarnation: u64,
+        /// Protocol version to announce.
+        #[arg(long, default_value_t = envpg_protocol::PROTOCOL_VERSION)]
+        protocol_version: u32,
+    },
 }
 
 /// Marks an error as bad input (exit code 2).
@@ -45,11 +116,28 @@ fn main() -> ExitCode {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
     let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).try_init();
+    envpg_transport::quiet_iceoryx2_logs();
     let cli = Cli::parse();
-    match run(cli) {
+    let result = match cli.role {
+        Some(Role::Learner { run_dir, resume }) => roles::learner(&run_dir, resume),
+        Some(Role::Worker { run_dir, worker_id, incarnation, protocol_version }) => {
+            roles::worker(&run_dir, worker_id, incarnation, protocol_version).map(|_| ())
+        }
+        None => run(cli.train, cli.launch),
+    };
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
+            if e.chain().any(|c| {
+                c.is::<supervise::Interrupted>()
+                    || matches!(
+                        c.downcast_ref::<envpg_learner::LearnerError>(),
+                        Some(envpg_learner::LearnerError::Terminated(_))
+                    )
+            }) {
+                return ExitCode::from(130);
+            }
             let input = e.chain().any(|c| {
                 c.is::<InputError>()
                     || c.is::<envpg_core::InstanceError>()
@@ -77,34 +165,83 @@ fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
     bar
 }
 
-fn run(cli: Cli) -> Result<()> {
-    // Everything that goes wrong while turning arguments into a run is the user's input.
-    let spec = cli.train.spec().map_err(|e| InputError(format!("{e:#}")))?;
-    if !cli.in_process {
-        anyhow::bail!("worker processes are not available yet: use --in-process");
-    }
-    let bar = progress_bar(spec.config.iterations as u64, cli.quiet);
-    let result = envpg_ac::trainer::train(&spec, |p| {
-        bar.set_position(p.k + 1);
-        bar.set_message(format!(
-            "α={:.3e} J_H≈{:.3} J={} {:.0} tr/s",
-            p.alpha,
-            p.j_h_estimate,
-            p.j_exact.map_or("-".into(), |j| format!("{j:.4}")),
-            p.transitions_per_s
-        ));
-        true
-    })?;
+fn message(alpha: f64, j_h: f64, j: Option<f64>, tps: f64) -> String {
+    format!("α={alpha:.3e} J_H≈{j_h:.3} J={} {tps:.0} tr/s", j.map_or("-".into(), |j| format!("{j:.4}")))
+}
+
+fn run(train: args::TrainArgs, launch: LaunchArgs) -> Result<()> {
+    let (dir, run, resume) = match &launch.resume {
+        Some(dir) => {
+            let run = RunFile::load(dir).map_err(|e| InputError(format!("--resume {}: {e:#}", dir.display())))?;
+            (dir.clone(), run, true)
+        }
+        None => {
+            // Everything that goes wrong while turning arguments into a run is the user's input.
+            let spec = train.spec().map_err(|e| InputError(format!("{e:#}")))?;
+            if launch.workers == 0 && !launch.in_process {
+                return Err(InputError("--workers must be at least 1".into()).into());
+            }
+            let run_id = run_dir::new_run_id();
+            let dir = launch.run_dir.clone().unwrap_or_else(|| std::env::temp_dir().join(format!("envpg-{run_id}")));
+            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+            let out =
+                if launch.out.is_absolute() { launch.out.clone() } else { std::env::current_dir()?.join(&launch.out) };
+            let run = RunFile {
+                run_id,
+                spec,
+                out,
+                workers: launch.workers,
+                checkpoint_every: launch.checkpoint_every,
+                emulator_cost_us: launch.emulator_cost_us,
+                worker_timeout_ms: launch.worker_timeout_ms,
+            };
+            run.save(&dir)?;
+            (dir, run, false)
+        }
+    };
+    let bar = progress_bar(run.spec.config.iterations as u64, launch.quiet);
+    let j = if launch.in_process {
+        let checkpoint = (run.checkpoint_every > 0).then(|| envpg_learner::CheckpointPolicy {
+            path: RunFile::checkpoint_path(&dir),
+            every: run.checkpoint_every,
+        });
+        let resume_from =
+            if resume { Some(envpg_protocol::Checkpoint::load(&RunFile::checkpoint_path(&dir))?) } else { None };
+        let (result, _) = in_process::run(&run, checkpoint, resume_from, |p| {
+            bar.set_position(p.k + 1);
+            bar.set_message(message(p.alpha, p.j_h_estimate, p.j_exact, p.transitions_per_s));
+            true
+        })?;
+        result.save(&run.out).with_context(|| format!("writing {}", run.out.display()))?;
+        result.j
+    } else {
+        let l = supervise::Launch {
+            dir: dir.clone(),
+            resume,
+            worker_protocol: launch.worker_protocol_version,
+            max_restarts: 20,
+        };
+        let outcome = supervise::supervise(&l, |v| {
+            let f = |k: &str| v.get(k).and_then(|x| x.as_f64());
+            if let Some(k) = v.get("k").and_then(|x| x.as_u64()) {
+                bar.set_position(k + 1);
+                bar.set_message(message(
+                    f("alpha").unwrap_or(0.0),
+                    f("j_h").unwrap_or(0.0),
+                    f("j"),
+                    f("tps").unwrap_or(0.0),
+                ));
+            }
+        })?;
+        outcome.done.as_ref().and_then(|d| d.get("J")).and_then(|j| j.as_f64())
+    };
     bar.finish_and_clear();
-    result.save(&cli.out).with_context(|| format!("writing {}", cli.out.display()))?;
-    if !cli.quiet {
+    if !launch.quiet {
         println!(
-            "J = {}  (J_H = {})  zeta = {}  {:.1}s  → {}",
-            result.j.map_or("inf".into(), |j| format!("{j:.6}")),
-            result.j_h.map_or("-".into(), |j| format!("{j:.6}")),
-            result.zeta.iter().map(|z| format!("{z:.3}")).collect::<Vec<_>>().join(","),
-            result.seconds.unwrap_or(0.0),
-            cli.out.display()
+            "J = {}  → {}  (run directory {})",
+            j.map_or("inf".into(), |j| format!("{j:.6}")),
+            run.out.display(),
+            dir.display()
         );
     }
     Ok(())

@@ -1,0 +1,53 @@
+//! The in-process fallback: the same learner and worker shells as threads of this process,
+//! linked by iceoryx2's process-local service (no shared memory needed).
+
+use std::time::Duration;
+
+use anyhow::Result;
+use envpg_ac::trainer::Progress;
+use envpg_core::ResultFile;
+use envpg_learner::{CheckpointPolicy, LearnerConfig, LinkStats, run_learner};
+use envpg_protocol::{Checkpoint, PROTOCOL_VERSION};
+use envpg_transport::local;
+use envpg_worker::{WorkerConfig, run_worker};
+
+use crate::run_dir::RunFile;
+
+/// Runs learner and `run.workers` workers (at least one) as threads.
+pub fn run(
+    run: &RunFile,
+    checkpoint: Option<CheckpointPolicy>,
+    resume: Option<Checkpoint>,
+    progress: impl FnMut(&Progress) -> bool,
+) -> Result<(ResultFile, LinkStats)> {
+    let workers = run.workers.max(1);
+    let lcfg = LearnerConfig {
+        run_id: run.run_id.clone(),
+        spec: run.spec.clone(),
+        max_workers: workers + 2,
+        worker_timeout: Duration::from_millis(run.worker_timeout_ms),
+        checkpoint,
+        resume,
+        stall_timeout: Duration::from_secs(60),
+    };
+    std::thread::scope(|scope| {
+        for i in 0..workers {
+            let wcfg = WorkerConfig {
+                run_id: run.run_id.clone(),
+                spec: run.spec.clone(),
+                worker_id: i as u32,
+                incarnation: 1,
+                protocol: PROTOCOL_VERSION,
+                join_timeout: Duration::from_secs(30),
+                heartbeat: Duration::from_millis((run.worker_timeout_ms / 5).clamp(10, 500)),
+                emulator_cost_us: run.emulator_cost_us,
+            };
+            scope.spawn(move || {
+                if let Err(e) = run_worker::<local::Service>(&wcfg) {
+                    eprintln!("worker {i}: {e}");
+                }
+            });
+        }
+        run_learner::<local::Service>(&lcfg, progress).map_err(anyhow::Error::from)
+    })
+}

@@ -1,0 +1,71 @@
+//! The learner and worker processes: read the run directory, run the shell, report.
+
+use std::path::Path;
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use envpg_learner::{CheckpointPolicy, LearnerConfig, run_learner};
+use envpg_protocol::Checkpoint;
+use envpg_transport::ipc;
+use envpg_worker::{WorkerConfig, WorkerExit, run_worker};
+
+use crate::run_dir::RunFile;
+
+/// Exit code of a worker that refused the run's protocol version (not restarted).
+pub const EXIT_PROTOCOL: u8 = 3;
+
+/// One JSON progress line on stdout, read by the supervisor.
+pub fn progress_line(p: &envpg_ac::trainer::Progress) -> String {
+    serde_json::json!({
+        "k": p.k, "total": p.total, "alpha": p.alpha, "j_h": p.j_h_estimate,
+        "tps": p.transitions_per_s, "j": p.j_exact,
+    })
+    .to_string()
+}
+
+/// The learner process.
+pub fn learner(dir: &Path, resume: bool) -> Result<()> {
+    let run = RunFile::load(dir)?;
+    let cp_path = RunFile::checkpoint_path(dir);
+    let resume_from = if resume { Some(Checkpoint::load(&cp_path)?) } else { None };
+    let cfg = LearnerConfig {
+        run_id: run.run_id.clone(),
+        spec: run.spec.clone(),
+        max_workers: run.workers.max(1) + 2,
+        worker_timeout: Duration::from_millis(run.worker_timeout_ms),
+        checkpoint: (run.checkpoint_every > 0)
+            .then(|| CheckpointPolicy { path: cp_path.clone(), every: run.checkpoint_every }),
+        resume: resume_from,
+        stall_timeout: Duration::from_secs(60),
+    };
+    let (result, stats) = run_learner::<ipc::Service>(&cfg, |p| {
+        println!("{}", progress_line(p));
+        true
+    })?;
+    result.save(&run.out).with_context(|| format!("writing {}", run.out.display()))?;
+    println!("{}", serde_json::json!({ "done": true, "J": result.j, "link": stats }));
+    Ok(())
+}
+
+/// A worker process.
+pub fn worker(dir: &Path, worker_id: u32, incarnation: u64, protocol: u32) -> Result<WorkerExit> {
+    let run = RunFile::load(dir)?;
+    let cfg = WorkerConfig {
+        run_id: run.run_id.clone(),
+        spec: run.spec.clone(),
+        worker_id,
+        incarnation,
+        protocol,
+        join_timeout: Duration::from_secs(30),
+        heartbeat: Duration::from_millis((run.worker_timeout_ms / 5).clamp(10, 500)),
+        emulator_cost_us: run.emulator_cost_us,
+    };
+    match run_worker::<ipc::Service>(&cfg) {
+        Ok(exit) => Ok(exit),
+        Err(envpg_worker::WorkerError::Transport(e @ envpg_transport::TransportError::Version { .. })) => {
+            eprintln!("error: {e}");
+            std::process::exit(EXIT_PROTOCOL as i32);
+        }
+        Err(e) => bail!(e),
+    }
+}

@@ -1,0 +1,59 @@
+//! The run directory: `run.json` (everything the learner and worker processes need) and the
+//! learner's checkpoint.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use envpg_ac::trainer::RunSpec;
+use serde::{Deserialize, Serialize};
+
+/// `run.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunFile {
+    /// Run id (service names).
+    pub run_id: String,
+    /// The run.
+    pub spec: RunSpec,
+    /// Result file path.
+    pub out: PathBuf,
+    /// Worker processes.
+    pub workers: usize,
+    /// Checkpoint period (0: none).
+    pub checkpoint_every: u64,
+    /// Extra compute per environment step (µs).
+    pub emulator_cost_us: u64,
+    /// Silence after which a worker is presumed dead (ms).
+    pub worker_timeout_ms: u64,
+}
+
+impl RunFile {
+    /// `DIR/run.json`.
+    pub fn path(dir: &Path) -> PathBuf {
+        dir.join("run.json")
+    }
+    /// `DIR/checkpoint.bin`.
+    pub fn checkpoint_path(dir: &Path) -> PathBuf {
+        dir.join("checkpoint.bin")
+    }
+    /// Reads `DIR/run.json`.
+    pub fn load(dir: &Path) -> Result<Self> {
+        let p = Self::path(dir);
+        let text = std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
+        serde_json::from_str(&text).with_context(|| format!("parsing {}", p.display()))
+    }
+    /// Writes `DIR/run.json` atomically.
+    pub fn save(&self, dir: &Path) -> Result<()> {
+        let p = Self::path(dir);
+        let text = serde_json::to_string_pretty(self)?;
+        envpg_core::io::write_atomic(&p, text.as_bytes()).with_context(|| format!("writing {}", p.display()))
+    }
+}
+
+/// A fresh run id: 12 hex digits from the time, the process id and per-process randomness.
+pub fn new_run_id() -> String {
+    let t = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
+    use std::hash::BuildHasher;
+    // RandomState is seeded from the OS per process: two launches in the same nanosecond differ.
+    let mix = std::collections::hash_map::RandomState::new().hash_one((t, std::process::id()));
+    format!("{:012x}", mix & 0xffff_ffff_ffff)
+}

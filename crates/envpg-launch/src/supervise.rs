@@ -1,0 +1,231 @@
+//! The supervisor: starts the learner and worker processes, restarts crashed workers, streams
+//! progress, forwards termination, and cleans up.
+
+use std::io::BufRead;
+use std::path::PathBuf;
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Result, anyhow, bail};
+use iceoryx2::prelude::*;
+
+use crate::roles::EXIT_PROTOCOL;
+use crate::run_dir::RunFile;
+
+/// What to supervise.
+#[derive(Debug, Clone)]
+pub struct Launch {
+    /// Run directory (run.json, checkpoint).
+    pub dir: PathBuf,
+    /// Continue from the checkpoint.
+    pub resume: bool,
+    /// Protocol version the workers announce (tests of version mismatches).
+    pub worker_protocol: u32,
+    /// Restarts allowed per worker slot.
+    pub max_restarts: u32,
+}
+
+/// What happened.
+#[derive(Debug, Default)]
+pub struct Outcome {
+    /// Workers restarted after a crash.
+    pub restarts: u32,
+    /// Stale iceoryx2 nodes of crashed runs removed at start.
+    pub stale_removed: usize,
+    /// The learner's final line.
+    pub done: Option<serde_json::Value>,
+}
+
+/// Removes the resources of dead iceoryx2 nodes (from runs killed with SIGKILL); returns how
+/// many were removed.
+pub fn remove_stale_nodes() -> usize {
+    let mut dead = Vec::new();
+    let _ = Node::<ipc::Service>::list(Config::global_config(), |state| {
+        if let NodeState::Dead(view) = state {
+            dead.push(view);
+        }
+        CallbackProgression::Continue
+    });
+    dead.into_iter().filter(|view| view.clone().try_remove_stale_resources().is_ok()).count()
+}
+
+fn terminate(child: &Child) {
+    // SAFETY: plain kill(2) on a pid we spawned.
+    unsafe {
+        libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
+    }
+}
+
+fn spawn(args: &[String], stdout: bool) -> Result<Child> {
+    let exe = std::env::current_exe()?;
+    let mut cmd = Command::new(exe);
+    cmd.args(args).stdin(Stdio::null());
+    if stdout {
+        cmd.stdout(Stdio::piped());
+    }
+    Ok(cmd.spawn()?)
+}
+
+struct Slot {
+    child: Option<Child>,
+    incarnation: u64,
+    restarts: u32,
+}
+
+fn worker_args(l: &Launch, id: usize, incarnation: u64) -> Vec<String> {
+    vec![
+        "worker".into(),
+        "--run-dir".into(),
+        l.dir.display().to_string(),
+        "--worker-id".into(),
+        id.to_string(),
+        "--incarnation".into(),
+        incarnation.to_string(),
+        "--protocol-version".into(),
+        l.worker_protocol.to_string(),
+    ]
+}
+
+/// Waits up to `grace` for `children` to exit, terminating then killing stragglers.
+fn stop_all(children: &mut [&mut Child], grace: Duration) {
+    let start = Instant::now();
+    for c in children.iter() {
+        terminate(c);
+    }
+    while start.elapsed() < grace {
+        if children.iter_mut().all(|c| c.try_wait().ok().flatten().is_some()) {
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    for c in children.iter_mut() {
+        let _ = c.kill();
+        let _ = c.wait();
+    }
+}
+
+fn describe(s: &ExitStatus) -> String {
+    use std::os::unix::process::ExitStatusExt;
+    match (s.code(), s.signal()) {
+        (Some(c), _) => format!("exit code {c}"),
+        (None, Some(sig)) => format!("signal {sig}"),
+        _ => "unknown status".into(),
+    }
+}
+
+/// Runs the learner and workers of `l` to completion; `progress` gets the learner's JSON lines.
+pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Result<Outcome> {
+    let run = RunFile::load(&l.dir)?;
+    let mut out = Outcome { stale_removed: remove_stale_nodes(), ..Default::default() };
+    if out.stale_removed > 0 {
+        eprintln!(
+            "removed the shared-memory resources of {} iceoryx2 node(s) left behind by a run that died",
+            out.stale_removed
+        );
+    }
+    // A node of our own makes SIGINT/SIGTERM observable without a custom signal handler.
+    let node = NodeBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .create::<ipc::Service>()
+        .map_err(|e| {
+            anyhow!(
+                "cannot create an iceoryx2 node: {e:?} (if shared memory is unavailable here, run with --in-process)"
+            )
+        })?;
+
+    let mut learner_args = vec!["learner".to_string(), "--run-dir".into(), l.dir.display().to_string()];
+    if l.resume {
+        learner_args.push("--resume".into());
+    }
+    let mut learner = spawn(&learner_args, true)?;
+    let (tx, rx) = mpsc::channel::<String>();
+    let stdout = learner.stdout.take().expect("piped");
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let mut slots: Vec<Slot> = (0..run.workers)
+        .map(|i| Ok(Slot { child: Some(spawn(&worker_args(l, i, 1), false)?), incarnation: 1, restarts: 0 }))
+        .collect::<Result<_>>()?;
+
+    let status = loop {
+        if node.wait(Duration::from_millis(25)).is_err() {
+            let mut all: Vec<&mut Child> = slots.iter_mut().filter_map(|s| s.child.as_mut()).collect();
+            all.push(&mut learner);
+            stop_all(&mut all, Duration::from_secs(5));
+            node.try_cleanup_dead_nodes();
+            bail!(Interrupted);
+        }
+        while let Ok(line) = rx.try_recv() {
+            match serde_json::from_str::<serde_json::Value>(&line) {
+                Ok(v) if v.get("done").is_some() => out.done = Some(v),
+                Ok(v) => progress(&v),
+                Err(_) => eprintln!("{line}"),
+            }
+        }
+        if let Some(s) = learner.try_wait()? {
+            break s;
+        }
+        for (i, slot) in slots.iter_mut().enumerate() {
+            let Some(child) = slot.child.as_mut() else { continue };
+            let Some(s) = child.try_wait()? else { continue };
+            if s.success() {
+                // It saw the end of the run.
+                slot.child = None;
+            } else if s.code() == Some(EXIT_PROTOCOL as i32) {
+                eprintln!("worker {i} refused the run (protocol version mismatch); not restarting it");
+                slot.child = None;
+            } else if slot.restarts >= l.max_restarts {
+                eprintln!(
+                    "worker {i} exited ({}) and has been restarted {} times already; giving up on it",
+                    describe(&s),
+                    slot.restarts
+                );
+                slot.child = None;
+            } else {
+                slot.restarts += 1;
+                slot.incarnation += 1;
+                out.restarts += 1;
+                eprintln!("worker {i} exited ({}); starting a replacement", describe(&s));
+                slot.child = Some(spawn(&worker_args(l, i, slot.incarnation), false)?);
+            }
+        }
+    };
+    while let Ok(line) = rx.recv_timeout(Duration::from_millis(200)) {
+        if let Ok(v) = serde_json::from_str::<serde_json::Value>(&line) {
+            if v.get("done").is_some() {
+                out.done = Some(v);
+            } else {
+                progress(&v);
+            }
+        }
+    }
+    // Workers leave by themselves once the learner announces the end; give them a moment.
+    let mut rest: Vec<&mut Child> = slots.iter_mut().filter_map(|s| s.child.as_mut()).collect();
+    let grace = Instant::now();
+    while grace.elapsed() < Duration::from_secs(2) && rest.iter_mut().any(|c| c.try_wait().ok().flatten().is_none()) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    stop_all(&mut rest, Duration::from_secs(3));
+    node.try_cleanup_dead_nodes();
+    if !status.success() {
+        bail!("the learner failed ({})", describe(&status));
+    }
+    Ok(out)
+}
+
+/// The run was interrupted by SIGINT/SIGTERM.
+#[derive(Debug)]
+pub struct Interrupted;
+
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("interrupted: every process of the run was stopped")
+    }
+}
+
+impl std::error::Error for Interrupted {}

@@ -1,0 +1,129 @@
+//! [`Assignments`]: which worker holds which episodes of the current iteration.
+//!
+//! Live workers (by slot and incarnation) with their outstanding episodes, and a queue of
+//! unassigned ones. Work is dealt round-robin over the live workers whenever there is queued
+//! work; a lost worker's outstanding episodes go back to the queue.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::time::{Duration, Instant};
+
+use envpg_protocol::EpisodeId;
+use envpg_transport::{LearnerEnd, TransportError};
+use iceoryx2::prelude::Service;
+
+#[derive(Debug)]
+struct Slot {
+    incarnation: u64,
+    last_seen: Instant,
+    outstanding: BTreeSet<EpisodeId>,
+}
+
+/// Episode assignments of the current iteration.
+#[derive(Debug)]
+pub struct Assignments {
+    timeout: Duration,
+    k: u64,
+    slots: BTreeMap<u32, Slot>,
+    queue: BTreeSet<EpisodeId>,
+}
+
+impl Assignments {
+    /// No workers yet; `timeout` of silence means dead.
+    pub fn new(timeout: Duration) -> Self {
+        Self { timeout, k: 0, slots: BTreeMap::new(), queue: BTreeSet::new() }
+    }
+
+    /// Live workers.
+    pub fn live(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// A new iteration: every episode is queued, nobody holds anything.
+    pub fn start_iteration(&mut self, k: u64, ids: &[EpisodeId]) {
+        self.k = k;
+        self.queue = ids.iter().copied().collect();
+        for s in self.slots.values_mut() {
+            s.outstanding.clear();
+        }
+    }
+
+    /// A worker joined (or rejoined with a new incarnation); returns 1 if it replaced a live
+    /// predecessor whose work was requeued.
+    pub fn join(&mut self, id: u32, incarnation: u64, reassigned: &mut u64) -> u64 {
+        let mut lost = 0;
+        if let Some(old) = self.slots.get(&id) {
+            if old.incarnation == incarnation {
+                self.heartbeat(id, incarnation);
+                return 0;
+            }
+            lost = self.drop_slot(id, reassigned);
+        }
+        self.slots.insert(id, Slot { incarnation, last_seen: Instant::now(), outstanding: BTreeSet::new() });
+        lost
+    }
+
+    /// A heartbeat.
+    pub fn heartbeat(&mut self, id: u32, incarnation: u64) {
+        if let Some(s) = self.slots.get_mut(&id)
+            && s.incarnation == incarnation
+        {
+            s.last_seen = Instant::now();
+        }
+    }
+
+    /// A worker left cleanly; returns 1 if it left work behind.
+    pub fn leave(&mut self, id: u32, incarnation: u64, reassigned: &mut u64) -> u64 {
+        match self.slots.get(&id) {
+            Some(s) if s.incarnation == incarnation => self.drop_slot(id, reassigned),
+            _ => 0,
+        }
+    }
+
+    fn drop_slot(&mut self, id: u32, reassigned: &mut u64) -> u64 {
+        let Some(s) = self.slots.remove(&id) else { return 0 };
+        let had_work = !s.outstanding.is_empty();
+        *reassigned += s.outstanding.len() as u64;
+        self.queue.extend(s.outstanding);
+        u64::from(had_work)
+    }
+
+    /// Workers silent for longer than the timeout are dropped; returns how many.
+    pub fn expire(&mut self, reassigned: &mut u64) -> u64 {
+        let dead: Vec<u32> =
+            self.slots.iter().filter(|(_, s)| s.last_seen.elapsed() > self.timeout).map(|(&id, _)| id).collect();
+        for &id in &dead {
+            tracing::warn!(
+                "worker {id} silent for more than {:?}: presumed dead, its episodes go to others",
+                self.timeout
+            );
+            self.drop_slot(id, reassigned);
+        }
+        dead.len() as u64
+    }
+
+    /// An episode arrived (from whoever ran it).
+    pub fn completed(&mut self, id: &EpisodeId) {
+        self.queue.remove(id);
+        for s in self.slots.values_mut() {
+            s.outstanding.remove(id);
+        }
+    }
+
+    /// Hands queued episodes round-robin to live workers and publishes the tasks.
+    pub fn dispatch<S: Service>(&mut self, end: &LearnerEnd<S>) -> Result<(), TransportError> {
+        if self.queue.is_empty() || self.slots.is_empty() {
+            return Ok(());
+        }
+        let ids: Vec<u32> = self.slots.keys().copied().collect();
+        let mut batches: BTreeMap<u32, Vec<EpisodeId>> = BTreeMap::new();
+        for (i, e) in std::mem::take(&mut self.queue).into_iter().enumerate() {
+            batches.entry(ids[i % ids.len()]).or_default().push(e);
+        }
+        for (id, eps) in batches {
+            let slot = self.slots.get_mut(&id).expect("live");
+            end.assign(id, slot.incarnation, self.k, &eps)?;
+            slot.outstanding.extend(eps);
+        }
+        Ok(())
+    }
+}

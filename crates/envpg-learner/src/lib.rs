@@ -1,0 +1,344 @@
+//! # envpg-learner
+//!
+//! The learner: a thin process shell around [`envpg_ac::Learner::update`].
+//!
+//! For each iteration k, [`run_learner`] broadcasts (θ_k, ζ_k, α_k), hands out the iteration's
+//! episode ids to the live workers, and blocks in a WaitSet until every episode has arrived. It
+//! then orders them by (kind, index) — so the update is the same whichever worker ran what —
+//! updates, records the history, and checkpoints on schedule.
+//!
+//! Faults: a worker that stops heartbeating (or is replaced: a new incarnation in its slot, or
+//! says goodbye) loses its unfinished episodes to the others; late or duplicate episodes are
+//! dropped, so nothing is lost or counted twice. Episodes from another run, iteration or
+//! protocol version, or of the wrong shape, are refused and counted.
+
+mod assign;
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use envpg_ac::learner::{Batch, LearnerState};
+use envpg_ac::rollout::{Episode, episode_ids};
+use envpg_ac::trainer::{Progress, Recorder, RunSpec, TrainError};
+use envpg_core::ResultFile;
+use envpg_protocol::{Checkpoint, EpisodeHeader, EpisodeId, PROTOCOL_VERSION, StepRecord, hello_kind, run_id_bytes};
+use envpg_transport::{LearnerEnd, LinkSizes, TransportError};
+use iceoryx2::prelude::*;
+use iceoryx2::waitset::WaitSetRunResult;
+
+pub use assign::Assignments;
+
+/// Where and how often to checkpoint.
+#[derive(Debug, Clone)]
+pub struct CheckpointPolicy {
+    /// The checkpoint file (written atomically).
+    pub path: PathBuf,
+    /// Every this many iterations.
+    pub every: u64,
+}
+
+/// How the learner is started.
+#[derive(Debug, Clone)]
+pub struct LearnerConfig {
+    /// Run id (names the services).
+    pub run_id: String,
+    /// The run.
+    pub spec: RunSpec,
+    /// Most workers alive at once (sizes the services).
+    pub max_workers: usize,
+    /// A worker silent for this long is presumed dead.
+    pub worker_timeout: Duration,
+    /// Checkpointing, if any.
+    pub checkpoint: Option<CheckpointPolicy>,
+    /// State to continue from.
+    pub resume: Option<Checkpoint>,
+    /// Stop (with an error) if no episode arrives for this long while workers are needed.
+    pub stall_timeout: Duration,
+}
+
+/// Counters of the link, reported in the result file.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct LinkStats {
+    /// Episode messages accepted.
+    pub episodes: u64,
+    /// Duplicates (an episode already received) dropped.
+    pub duplicates: u64,
+    /// Messages for another iteration dropped.
+    pub stale: u64,
+    /// Messages refused (other run, version, shape).
+    pub refused: u64,
+    /// Workers declared dead (timeout, replacement or goodbye with work outstanding).
+    pub workers_lost: u64,
+    /// Episodes handed out again after a worker was lost.
+    pub reassigned: u64,
+    /// Workers that refused the run for a protocol mismatch.
+    pub protocol_refusals: u64,
+}
+
+/// Why the learner stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum LearnerError {
+    /// The link failed.
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+    /// The algorithm failed (bad settings, refused batch).
+    #[error(transparent)]
+    Train(#[from] TrainError),
+    /// A checkpoint could not be used.
+    #[error("checkpoint: {0}")]
+    Checkpoint(String),
+    /// The WaitSet failed.
+    #[error("waiting for events: {0}")]
+    Wait(String),
+    /// SIGINT/SIGTERM.
+    #[error("terminated by signal at iteration {0}")]
+    Terminated(u64),
+    /// No worker produced anything for too long.
+    #[error("no episode arrived for {seconds:.0} s at iteration {k} ({pending} pending, {live} live workers)")]
+    Stalled {
+        /// Iteration.
+        k: u64,
+        /// Seconds waited.
+        seconds: f64,
+        /// Episodes still missing.
+        pending: usize,
+        /// Live workers.
+        live: usize,
+    },
+    /// Every worker refused the run's protocol version.
+    #[error("worker {worker} speaks protocol version {worker_version}, this learner speaks version {learner_version}")]
+    Protocol {
+        /// Worker slot.
+        worker: u32,
+        /// The worker's version.
+        worker_version: u32,
+        /// Ours.
+        learner_version: u32,
+    },
+    /// The progress callback asked to stop.
+    #[error("stopped at iteration {0}")]
+    Stopped(u64),
+}
+
+/// Converts a received episode message to an [`Episode`], checking its shape.
+pub fn episode_from(h: &EpisodeHeader, recs: &[StepRecord], d: usize, cap: usize) -> Result<Episode, String> {
+    if h.zeta_dim as usize != d {
+        return Err(format!("ζ dimension {} instead of {d}", h.zeta_dim));
+    }
+    if recs.len() != h.len as usize || recs.len() > cap || recs.is_empty() {
+        return Err(format!("{} records (header says {}, cap {cap})", recs.len(), h.len));
+    }
+    let mut ep =
+        Episode { index: h.episode.index, explore: h.episode.kind != 0, capped: h.capped != 0, ..Default::default() };
+    for r in recs {
+        ep.s.push(r.s);
+        ep.a.push(r.a);
+        ep.s2.push(r.s2);
+        ep.cost.push(r.cost);
+        ep.zeta.extend_from_slice(&r.zeta[..d]);
+    }
+    Ok(ep)
+}
+
+fn episode_id(kind: envpg_ac::EpisodeKind, index: u64) -> EpisodeId {
+    EpisodeId { kind: u32::from(kind == envpg_ac::EpisodeKind::Explore), index: index as u32 }
+}
+
+/// Runs the learner until the last iteration; returns the result file (not yet written).
+pub fn run_learner<S: Service>(
+    cfg: &LearnerConfig,
+    mut progress: impl FnMut(&Progress) -> bool,
+) -> Result<(ResultFile, LinkStats), LearnerError>
+where
+    iceoryx2::port::listener::Listener<S>: SynchronousMultiplexing,
+{
+    let spec = &cfg.spec;
+    let (net, zeta0, mut learner) = spec.start()?;
+    let mut rec = Recorder::new(spec, &net, &zeta0);
+    if let Some(c) = &cfg.resume {
+        let st: LearnerState = postcard::from_bytes(&c.learner).map_err(|e| LearnerError::Checkpoint(e.to_string()))?;
+        learner.restore(st).map_err(LearnerError::Checkpoint)?;
+        let history = serde_json::from_str(&c.history_json).map_err(|e| LearnerError::Checkpoint(e.to_string()))?;
+        rec.resume(history, c.transitions, c.capped);
+        rec.add_seconds(c.seconds);
+    }
+    let d = zeta0.len();
+    let ids: Vec<EpisodeId> = episode_ids(&spec.config).map(|(kind, e)| episode_id(kind, e)).collect();
+    let sizes = LinkSizes {
+        max_workers: cfg.max_workers,
+        n_params: learner.actor().n_params(),
+        episode_cap: spec.config.episode_cap,
+        episodes_per_iteration: ids.len(),
+    };
+    let end = LearnerEnd::<S>::create(&cfg.run_id, sizes)?;
+    end.announce(d, false)?;
+    // Whatever ends this function, workers are told the run is over.
+    let _finish = Finish { end: &end, zeta_dim: d };
+    let waitset = WaitSetBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .create::<S>()
+        .map_err(|e| LearnerError::Wait(format!("{e:?}")))?;
+    let _wake = waitset.attach_notification(end.listener()).map_err(|e| LearnerError::Wait(format!("{e:?}")))?;
+    // Late joiners only get the run info and weights once the publishers refresh their
+    // connections, so tick often.
+    let tick = (cfg.worker_timeout / 4).clamp(Duration::from_millis(5), Duration::from_millis(50));
+    let _tick = waitset.attach_interval(tick).map_err(|e| LearnerError::Wait(format!("{e:?}")))?;
+
+    let run_id = run_id_bytes(&cfg.run_id);
+    let mut stats = LinkStats::default();
+    let mut workers = Assignments::new(cfg.worker_timeout);
+    let mut last_refusal: Option<(u32, u32, Instant)> = None;
+    while (learner.k() as usize) < spec.config.iterations {
+        let k = learner.k();
+        let zeta_k = learner.zeta().to_vec();
+        end.publish_weights(k, learner.alpha(), &zeta_k, learner.actor().params())?;
+        let mut done: BTreeMap<EpisodeId, Episode> = BTreeMap::new();
+        workers.start_iteration(k, &ids);
+        workers.dispatch(&end)?;
+        end.notify_workers()?;
+        let mut last_arrival = Instant::now();
+        while done.len() < ids.len() {
+            let r = waitset
+                .wait_and_process_once_with_timeout(|_| CallbackProgression::Continue, tick)
+                .map_err(|e| LearnerError::Wait(format!("{e:?}")))?;
+            if matches!(r, WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt) {
+                let _ = end.announce(d, true);
+                return Err(LearnerError::Terminated(k));
+            }
+            end.drain_wakeups();
+            end.refresh();
+            for h in end.receive_hellos()? {
+                if h.magic != envpg_protocol::MAGIC || h.run_id != run_id {
+                    stats.refused += 1;
+                    continue;
+                }
+                match h.kind {
+                    hello_kind::REFUSE => {
+                        stats.protocol_refusals += 1;
+                        last_refusal = Some((h.worker_id, h.protocol, Instant::now()));
+                        tracing::error!(
+                            "worker {} refused the run: it speaks protocol version {}, this learner speaks version {PROTOCOL_VERSION}",
+                            h.worker_id,
+                            h.protocol
+                        );
+                    }
+                    _ if h.protocol != PROTOCOL_VERSION => stats.refused += 1,
+                    hello_kind::JOIN => {
+                        stats.workers_lost += workers.join(h.worker_id, h.incarnation, &mut stats.reassigned)
+                    }
+                    hello_kind::HEARTBEAT => workers.heartbeat(h.worker_id, h.incarnation),
+                    hello_kind::LEAVE => {
+                        stats.workers_lost += workers.leave(h.worker_id, h.incarnation, &mut stats.reassigned)
+                    }
+                    _ => stats.refused += 1,
+                }
+            }
+            let cap = spec.config.episode_cap;
+            end.receive_episodes(|h, recs| {
+                if h.protocol != PROTOCOL_VERSION || h.run_id != run_id {
+                    stats.refused += 1;
+                    return;
+                }
+                if h.k != k {
+                    stats.stale += 1;
+                    return;
+                }
+                if !ids.contains(&h.episode) {
+                    stats.refused += 1;
+                    return;
+                }
+                let std::collections::btree_map::Entry::Vacant(slot) = done.entry(h.episode) else {
+                    stats.duplicates += 1;
+                    return;
+                };
+                match episode_from(h, recs, d, cap) {
+                    Ok(ep) => {
+                        workers.completed(&h.episode);
+                        slot.insert(ep);
+                        stats.episodes += 1;
+                        last_arrival = Instant::now();
+                    }
+                    Err(reason) => {
+                        tracing::warn!("refusing episode {:?} from worker {}: {reason}", h.episode, h.worker_id);
+                        stats.refused += 1;
+                    }
+                }
+            })?;
+            let lost = workers.expire(&mut stats.reassigned);
+            if lost > 0 {
+                stats.workers_lost += lost;
+                end.cleanup_dead_nodes();
+            }
+            workers.dispatch(&end)?;
+            end.notify_workers()?;
+            // Workers that refused our protocol are not coming back: with nobody else to do the
+            // work, say so instead of waiting out the stall timeout.
+            if let (Some((worker, v, when)), 0) = (last_refusal, workers.live())
+                && when.elapsed() > cfg.worker_timeout
+            {
+                return Err(LearnerError::Protocol { worker, worker_version: v, learner_version: PROTOCOL_VERSION });
+            }
+            if done.len() < ids.len() && last_arrival.elapsed() > cfg.stall_timeout {
+                return Err(LearnerError::Stalled {
+                    k,
+                    seconds: last_arrival.elapsed().as_secs_f64(),
+                    pending: ids.len() - done.len(),
+                    live: workers.live(),
+                });
+            }
+        }
+        let mut table = learner.policy_table();
+        let episodes: Vec<Episode> = done.into_values().collect();
+        let st = learner.update(&Batch { k, episodes }).map_err(TrainError::from)?;
+        let p = rec.record(&net, &zeta_k, &mut table, &st);
+        if let Some(cp) = &cfg.checkpoint
+            && (learner.k() % cp.every == 0 || learner.k() as usize == spec.config.iterations)
+        {
+            write_checkpoint(cp, spec, &learner.state(), &rec)?;
+        }
+        if !progress(&p) {
+            let _ = end.announce(d, true);
+            return Err(LearnerError::Stopped(k));
+        }
+    }
+    end.announce(d, true)?;
+    let details = serde_json::json!({ "mode": "workers", "link": stats });
+    Ok((rec.finish(&net, &learner, "envpg-ac", details), stats))
+}
+
+/// Announces the end of the run when dropped.
+struct Finish<'a, S: Service> {
+    end: &'a LearnerEnd<S>,
+    zeta_dim: usize,
+}
+
+impl<S: Service> Drop for Finish<'_, S> {
+    fn drop(&mut self) {
+        let _ = self.end.announce(self.zeta_dim, true);
+    }
+}
+
+fn write_checkpoint(
+    cp: &CheckpointPolicy,
+    spec: &RunSpec,
+    st: &LearnerState,
+    rec: &Recorder,
+) -> Result<(), LearnerError> {
+    let c = Checkpoint {
+        protocol: PROTOCOL_VERSION,
+        spec_json: serde_json::to_string(spec).map_err(|e| LearnerError::Checkpoint(e.to_string()))?,
+        learner: postcard::to_stdvec(st).map_err(|e| LearnerError::Checkpoint(e.to_string()))?,
+        history_json: serde_json::to_string(rec.history()).map_err(|e| LearnerError::Checkpoint(e.to_string()))?,
+        transitions: rec.transitions(),
+        capped: rec.capped(),
+        seconds: rec.seconds(),
+    };
+    envpg_core::io::write_atomic(&cp.path, &c.to_bytes())
+        .map_err(|e| LearnerError::Checkpoint(format!("{}: {e}", cp.path.display())))
+}
+
+/// Reads the set of episode ids of an iteration (for tests and tools).
+pub fn iteration_ids(spec: &RunSpec) -> BTreeSet<EpisodeId> {
+    episode_ids(&spec.config).map(|(kind, e)| episode_id(kind, e)).collect()
+}

@@ -1,0 +1,391 @@
+//! # envpg-protocol
+//!
+//! Every type that crosses a process boundary, and nothing else. The distributed run is a
+//! learner and rollout workers talking over iceoryx2 publish–subscribe services whose names all
+//! start with `envpg/<run id>/`:
+//!
+//! | service | direction | header | payload |
+//! |---|---|---|---|
+//! | [`ServiceNames::run_info`] | learner → all | — | [`RunInfo`] (history 1) |
+//! | [`ServiceNames::hello`] | workers → learner | — | [`Hello`] (join, heartbeat, leave) |
+//! | [`ServiceNames::weights`] | learner → workers | [`WeightsHeader`] | `[f32]` actor θ_k (history 1) |
+//! | [`ServiceNames::tasks`] | learner → workers | [`TaskHeader`] | `[EpisodeId]` |
+//! | [`ServiceNames::episodes`] | workers → learner | [`EpisodeHeader`] | `[StepRecord]` |
+//!
+//! plus event services ([`ServiceNames::learner_wakeup`], [`ServiceNames::worker_wakeup`]) that
+//! wake the other side's WaitSet once per message, never per record.
+//!
+//! [`RunInfo`] and [`Hello`] have type names that never change, so peers of any version can
+//! still exchange them and refuse each other with a message naming both versions. Everything
+//! else carries the version in its type name and service name: a peer of another version
+//! cannot even open those services. Every header repeats the version and the run id.
+//!
+//! [`Checkpoint`] is the learner's saved state (postcard, written atomically).
+
+use iceoryx2::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Version of this protocol. Bump on any change to a type below.
+pub const PROTOCOL_VERSION: u32 = 1;
+
+/// Marks envpg messages in the version-agnostic types.
+pub const MAGIC: u64 = 0x656e_7670_675f_7631; // "envpg_v1"
+
+/// Largest ζ dimension carried in headers and records (32 UAVs).
+pub const MAX_ZETA: usize = 64;
+
+/// Bytes of a run id.
+pub const RUN_ID_LEN: usize = 16;
+
+/// A run id as fixed bytes (ASCII, zero-padded).
+pub type RunId = [u8; RUN_ID_LEN];
+
+/// Converts a run id string (at most [`RUN_ID_LEN`] ASCII bytes) to its fixed form.
+pub fn run_id_bytes(id: &str) -> RunId {
+    let mut out = [0u8; RUN_ID_LEN];
+    for (o, b) in out.iter_mut().zip(id.bytes()) {
+        *o = b;
+    }
+    out
+}
+
+/// The string form of a fixed run id.
+pub fn run_id_str(id: &RunId) -> String {
+    String::from_utf8_lossy(&id[..id.iter().position(|&b| b == 0).unwrap_or(RUN_ID_LEN)]).into_owned()
+}
+
+/// What the learner announces about the run (version-agnostic layout).
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("envpg.RunInfo")]
+pub struct RunInfo {
+    /// [`MAGIC`].
+    pub magic: u64,
+    /// The learner's [`PROTOCOL_VERSION`].
+    pub protocol: u32,
+    /// Dimension of ζ.
+    pub zeta_dim: u32,
+    /// Number of actor parameters in a weights message.
+    pub n_params: u32,
+    /// Episode length cap (records per episode message at most).
+    pub episode_cap: u32,
+    /// Run id.
+    pub run_id: RunId,
+    /// Non-zero once the run has ended: workers should leave.
+    pub finished: u32,
+    /// Padding.
+    pub _pad: u32,
+}
+
+/// Kinds of [`Hello`] message.
+pub mod hello_kind {
+    /// A worker joins.
+    pub const JOIN: u32 = 0;
+    /// A worker is alive.
+    pub const HEARTBEAT: u32 = 1;
+    /// A worker leaves cleanly.
+    pub const LEAVE: u32 = 2;
+    /// A worker refuses the run (protocol mismatch); `detail` holds the learner's version.
+    pub const REFUSE: u32 = 3;
+}
+
+/// A worker's join / heartbeat / leave message (version-agnostic layout).
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("envpg.Hello")]
+pub struct Hello {
+    /// [`MAGIC`].
+    pub magic: u64,
+    /// The worker's [`PROTOCOL_VERSION`].
+    pub protocol: u32,
+    /// See [`hello_kind`].
+    pub kind: u32,
+    /// Worker id (slot); a replacement reuses its predecessor's id.
+    pub worker_id: u32,
+    /// Operating-system process id.
+    pub pid: u32,
+    /// Incarnation: distinguishes a replacement from the worker it replaces.
+    pub incarnation: u64,
+    /// Run id the worker believes it belongs to.
+    pub run_id: RunId,
+    /// Kind-specific detail.
+    pub detail: u64,
+}
+
+/// Header of a weights broadcast: everything a worker needs for iteration k besides θ_k.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("envpg.v1.WeightsHeader")]
+pub struct WeightsHeader {
+    /// [`PROTOCOL_VERSION`].
+    pub protocol: u32,
+    /// Dimension of ζ used in `zeta`.
+    pub zeta_dim: u32,
+    /// Run id.
+    pub run_id: RunId,
+    /// Iteration k.
+    pub k: u64,
+    /// Number of parameters in the payload.
+    pub n_params: u64,
+    /// α_k.
+    pub alpha: f64,
+    /// ζ_k (first `zeta_dim` entries).
+    pub zeta: [f64; MAX_ZETA],
+}
+
+impl Default for WeightsHeader {
+    fn default() -> Self {
+        Self {
+            protocol: PROTOCOL_VERSION,
+            zeta_dim: 0,
+            run_id: [0; RUN_ID_LEN],
+            k: 0,
+            n_params: 0,
+            alpha: 0.0,
+            zeta: [0.0; MAX_ZETA],
+        }
+    }
+}
+
+/// Identifies one episode of an iteration.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, PartialOrd, Ord, ZeroCopySend)]
+#[repr(C)]
+#[type_name("envpg.v1.EpisodeId")]
+pub struct EpisodeId {
+    /// 0: on-policy, 1: exploration.
+    pub kind: u32,
+    /// Index within its kind.
+    pub index: u32,
+}
+
+/// Header of a task message: episodes of iteration k assigned to one worker.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("envpg.v1.TaskHeader")]
+pub struct TaskHeader {
+    /// [`PROTOCOL_VERSION`].
+    pub protocol: u32,
+    /// The worker the task is for.
+    pub worker_id: u32,
+    /// Run id.
+    pub run_id: RunId,
+    /// Iteration k.
+    pub k: u64,
+    /// Incarnation of the worker the task is for.
+    pub incarnation: u64,
+}
+
+/// Header of one episode's transitions.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("envpg.v1.EpisodeHeader")]
+pub struct EpisodeHeader {
+    /// [`PROTOCOL_VERSION`].
+    pub protocol: u32,
+    /// Worker that ran it.
+    pub worker_id: u32,
+    /// Run id.
+    pub run_id: RunId,
+    /// Iteration k.
+    pub k: u64,
+    /// Which episode.
+    pub episode: EpisodeId,
+    /// Per-worker sequence number of this message.
+    pub seq: u64,
+    /// Number of records (steps).
+    pub len: u32,
+    /// Non-zero if the episode hit the length cap.
+    pub capped: u32,
+    /// Dimension of ζ in the records.
+    pub zeta_dim: u32,
+    /// Padding.
+    pub _pad: u32,
+}
+
+/// One step of an episode: (s, a, s', c, ζ_pert).
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("envpg.v1.StepRecord")]
+pub struct StepRecord {
+    /// s_t.
+    pub s: u32,
+    /// a_t.
+    pub a: u32,
+    /// s_{t+1}.
+    pub s2: u32,
+    /// c_t.
+    pub cost: f32,
+    /// ζ_pert of the step (first `zeta_dim` entries).
+    pub zeta: [f32; MAX_ZETA],
+}
+
+/// The names of a run's services.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ServiceNames {
+    prefix: String,
+}
+
+impl ServiceNames {
+    /// Names for run `run_id`.
+    pub fn new(run_id: &str) -> Self {
+        Self { prefix: format!("envpg/{run_id}") }
+    }
+    /// Run information (version-agnostic).
+    pub fn run_info(&self) -> String {
+        format!("{}/run-info", self.prefix)
+    }
+    /// Worker join/heartbeat/leave (version-agnostic).
+    pub fn hello(&self) -> String {
+        format!("{}/hello", self.prefix)
+    }
+    /// Weights broadcast.
+    pub fn weights(&self) -> String {
+        format!("{}/v{PROTOCOL_VERSION}/weights", self.prefix)
+    }
+    /// Task assignment.
+    pub fn tasks(&self) -> String {
+        format!("{}/v{PROTOCOL_VERSION}/tasks", self.prefix)
+    }
+    /// Episode transitions.
+    pub fn episodes(&self) -> String {
+        format!("{}/v{PROTOCOL_VERSION}/episodes", self.prefix)
+    }
+    /// Event that wakes the learner.
+    pub fn learner_wakeup(&self) -> String {
+        format!("{}/learner-wakeup", self.prefix)
+    }
+    /// Event that wakes the workers.
+    pub fn worker_wakeup(&self) -> String {
+        format!("{}/worker-wakeup", self.prefix)
+    }
+    /// The common prefix.
+    pub fn prefix(&self) -> &str {
+        &self.prefix
+    }
+}
+
+/// The learner's saved state, enough to continue a run bitwise identically.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Checkpoint {
+    /// [`PROTOCOL_VERSION`] of the writer.
+    pub protocol: u32,
+    /// The run specification, as JSON (instance, κ, η, seed, settings).
+    pub spec_json: String,
+    /// The learner's state, postcard-encoded (parameters, optimiser moments, ζ, α, k,
+    /// counters): binary so every float comes back bit for bit.
+    pub learner: Vec<u8>,
+    /// The recorder's history so far, as JSON.
+    pub history_json: String,
+    /// Transitions consumed so far.
+    pub transitions: u64,
+    /// Capped episodes so far.
+    pub capped: u64,
+    /// Wall-clock seconds spent before this checkpoint.
+    pub seconds: f64,
+}
+
+/// Why a checkpoint could not be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    /// File system error.
+    #[error("checkpoint {path}: {err}")]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The error.
+        err: std::io::Error,
+    },
+    /// Not a checkpoint, or a corrupt one.
+    #[error("checkpoint {path} is not readable: {reason}")]
+    Format {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What failed.
+        reason: String,
+    },
+    /// Written by another protocol version.
+    #[error("checkpoint {path} was written by protocol version {found}, this build speaks version {expected}")]
+    Version {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Version in the file.
+        found: u32,
+        /// Our version.
+        expected: u32,
+    },
+}
+
+impl Checkpoint {
+    /// Serialises with postcard.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        postcard::to_stdvec(self).expect("checkpoint serialises")
+    }
+
+    /// Reads a checkpoint file, checking its version.
+    pub fn load(path: &std::path::Path) -> Result<Self, CheckpointError> {
+        let bytes = std::fs::read(path).map_err(|err| CheckpointError::Io { path: path.to_owned(), err })?;
+        let c: Checkpoint = postcard::from_bytes(&bytes)
+            .map_err(|e| CheckpointError::Format { path: path.to_owned(), reason: e.to_string() })?;
+        if c.protocol != PROTOCOL_VERSION {
+            return Err(CheckpointError::Version {
+                path: path.to_owned(),
+                found: c.protocol,
+                expected: PROTOCOL_VERSION,
+            });
+        }
+        Ok(c)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn run_ids_round_trip_and_names_carry_run_and_version() {
+        let id = run_id_bytes("a1b2c3");
+        assert_eq!(run_id_str(&id), "a1b2c3");
+        let n = ServiceNames::new("a1b2c3");
+        assert_eq!(n.episodes(), format!("envpg/a1b2c3/v{PROTOCOL_VERSION}/episodes"));
+        assert!(n.hello().starts_with("envpg/a1b2c3/"));
+    }
+
+    #[test]
+    fn type_names_are_stable_and_versioned() {
+        // SAFETY: type_name only returns a static string.
+        unsafe {
+            assert_eq!(RunInfo::type_name(), "envpg.RunInfo");
+            assert_eq!(Hello::type_name(), "envpg.Hello");
+            assert_eq!(StepRecord::type_name(), "envpg.v1.StepRecord");
+        }
+    }
+
+    #[test]
+    fn checkpoints_round_trip_and_refuse_other_versions() {
+        let dir = std::env::temp_dir().join(format!("envpg-ckpt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("c.bin");
+        let c = Checkpoint {
+            protocol: PROTOCOL_VERSION,
+            spec_json: "{}".into(),
+            learner: vec![1, 2, 3],
+            history_json: "[]".into(),
+            transitions: 9,
+            capped: 1,
+            seconds: 0.5,
+        };
+        std::fs::write(&p, c.to_bytes()).unwrap();
+        assert_eq!(Checkpoint::load(&p).unwrap(), c);
+        let old = Checkpoint { protocol: PROTOCOL_VERSION + 1, ..c };
+        std::fs::write(&p, old.to_bytes()).unwrap();
+        let e = Checkpoint::load(&p).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!("version {}", PROTOCOL_VERSION + 1))
+                && e.contains(&format!("version {PROTOCOL_VERSION}")),
+            "{e}"
+        );
+        std::fs::write(&p, b"garbage").unwrap();
+        assert!(matches!(Checkpoint::load(&p), Err(CheckpointError::Format { .. })));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

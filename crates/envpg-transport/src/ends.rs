@@ -1,0 +1,627 @@
+//! [`LearnerEnd`] and [`WorkerEnd`].
+
+use std::time::{Duration, Instant};
+
+use envpg_protocol::{
+    EpisodeHeader, EpisodeId, Hello, MAGIC, PROTOCOL_VERSION, RunInfo, ServiceNames, StepRecord, TaskHeader,
+    WeightsHeader, run_id_bytes,
+};
+use iceoryx2::node::Node;
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::update_connections::UpdateConnections;
+use iceoryx2::prelude::*;
+
+use crate::error::TransportError;
+
+/// Limits both ends agree on; the learner creates services with them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LinkSizes {
+    /// Most workers alive at once, replacements included.
+    pub max_workers: usize,
+    /// Actor parameters per weights message.
+    pub n_params: usize,
+    /// Records per episode message at most.
+    pub episode_cap: usize,
+    /// Episodes per iteration (bounds task messages and the episode queue).
+    pub episodes_per_iteration: usize,
+}
+
+impl LinkSizes {
+    fn max_ports(&self) -> usize {
+        // Replacements of crashed workers may briefly coexist with their predecessors' stale
+        // ports until those are cleaned up.
+        2 * self.max_workers + 8
+    }
+}
+
+/// Silences iceoryx2's own log lines (e.g. "no config file was loaded") unless `IOX2_LOG_LEVEL`
+/// asks for them.
+pub fn quiet_iceoryx2_logs() {
+    set_log_level_from_env_or(LogLevel::Error);
+}
+
+fn service_name(name: &str) -> Result<ServiceName, TransportError> {
+    ServiceName::new(name).map_err(|e| TransportError::Name { name: name.to_owned(), reason: format!("{e:?}") })
+}
+
+fn svc_err(service: &str, e: impl std::fmt::Debug) -> TransportError {
+    TransportError::Service { service: service.to_owned(), reason: format!("{e:?}") }
+}
+
+fn port_err(port: &'static str, service: &str, e: impl std::fmt::Debug) -> TransportError {
+    TransportError::Port { port, service: service.to_owned(), reason: format!("{e:?}") }
+}
+
+fn node<S: Service>(name: &str) -> Result<Node<S>, TransportError> {
+    let node_name = NodeName::new(name).map_err(|e| TransportError::Node(format!("{e:?}")))?;
+    NodeBuilder::new()
+        .name(&node_name)
+        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .create::<S>()
+        .map_err(|e| TransportError::Node(format!("{e:?}")))
+}
+
+/// The learner's side of the link.
+#[derive(Debug)]
+pub struct LearnerEnd<S: Service> {
+    node: Node<S>,
+    names: ServiceNames,
+    run_id: String,
+    sizes: LinkSizes,
+    run_info: Publisher<S, RunInfo, ()>,
+    hello: Subscriber<S, Hello, ()>,
+    weights: Publisher<S, [f32], WeightsHeader>,
+    tasks: Publisher<S, [EpisodeId], TaskHeader>,
+    episodes: Subscriber<S, [StepRecord], EpisodeHeader>,
+    wake_workers: Notifier<S>,
+    wakeup: Listener<S>,
+}
+
+impl<S: Service> LearnerEnd<S> {
+    /// Creates every service of run `run_id` with `sizes`.
+    pub fn create(run_id: &str, sizes: LinkSizes) -> Result<Self, TransportError> {
+        let node = node::<S>(&format!("envpg-learner-{run_id}"))?;
+        let names = ServiceNames::new(run_id);
+        let ports = sizes.max_ports();
+
+        let n = names.run_info();
+        let run_info = node
+            .service_builder(&service_name(&n)?)
+            .publish_subscribe::<RunInfo>()
+            .max_publishers(1)
+            .max_subscribers(ports)
+            .max_nodes(ports + 1)
+            .history_size(1)
+            .subscriber_max_buffer_size(2)
+            .create()
+            .map_err(|e| svc_err(&n, e))?
+            .publisher_builder()
+            .create()
+            .map_err(|e| port_err("publisher", &n, e))?;
+
+        let n = names.hello();
+        let hello = node
+            .service_builder(&service_name(&n)?)
+            .publish_subscribe::<Hello>()
+            .max_publishers(ports)
+            .max_subscribers(2)
+            .max_nodes(ports + 1)
+            .subscriber_max_buffer_size(4 * ports + 64)
+            .create()
+            .map_err(|e| svc_err(&n, e))?
+            .subscriber_builder()
+            .buffer_size(4 * ports + 64)
+            .create()
+            .map_err(|e| port_err("subscriber", &n, e))?;
+
+        let n = names.weights();
+        let weights = node
+            .service_builder(&service_name(&n)?)
+            .publish_subscribe::<[f32]>()
+            .user_header::<WeightsHeader>()
+            .max_publishers(1)
+            .max_subscribers(ports)
+            .max_nodes(ports + 1)
+            .history_size(1)
+            .subscriber_max_buffer_size(2)
+            .create()
+            .map_err(|e| svc_err(&n, e))?
+            .publisher_builder()
+            .initial_max_slice_len(sizes.n_params.max(1))
+            .create()
+            .map_err(|e| port_err("publisher", &n, e))?;
+
+        let n = names.tasks();
+        let task_queue = 4 * sizes.max_workers + 16;
+        let tasks = node
+            .service_builder(&service_name(&n)?)
+            .publish_subscribe::<[EpisodeId]>()
+            .user_header::<TaskHeader>()
+            .max_publishers(1)
+            .max_subscribers(ports)
+            .max_nodes(ports + 1)
+            .subscriber_max_buffer_size(task_queue)
+            .create()
+            .map_err(|e| svc_err(&n, e))?
+            .publisher_builder()
+            .initial_max_slice_len(sizes.episodes_per_iteration.max(1))
+            .max_loaned_samples(4)
+            .create()
+            .map_err(|e| port_err("publisher", &n, e))?;
+
+        let n = names.episodes();
+        // Room for several iterations' episodes: the queue never overflows in normal operation,
+        // since workers only produce what the current iteration asked for.
+        let queue = 4 * sizes.episodes_per_iteration + 64;
+        let episodes = node
+            .service_builder(&service_name(&n)?)
+            .publish_subscribe::<[StepRecord]>()
+            .user_header::<EpisodeHeader>()
+            .max_publishers(ports)
+            .max_subscribers(2)
+            .max_nodes(ports + 1)
+            .subscriber_max_buffer_size(queue)
+            .create()
+            .map_err(|e| svc_err(&n, e))?
+            .subscriber_builder()
+            .buffer_size(queue)
+            .create()
+            .map_err(|e| port_err("subscriber", &n, e))?;
+
+        let n = names.worker_wakeup();
+        let wake_workers = node
+            .service_builder(&service_name(&n)?)
+            .event()
+            .max_notifiers(2)
+            .max_listeners(ports)
+            .max_nodes(ports + 1)
+            .create()
+            .map_err(|e| svc_err(&n, e))?
+            .notifier_builder()
+            .create()
+            .map_err(|e| port_err("notifier", &n, e))?;
+
+        let n = names.learner_wakeup();
+        let wakeup = node
+            .service_builder(&service_name(&n)?)
+            .event()
+            .max_notifiers(ports)
+            .max_listeners(2)
+            .max_nodes(ports + 1)
+            .create()
+            .map_err(|e| svc_err(&n, e))?
+            .listener_builder()
+            .create()
+            .map_err(|e| port_err("listener", &n, e))?;
+
+        Ok(Self {
+            node,
+            names,
+            run_id: run_id.to_owned(),
+            sizes,
+            run_info,
+            hello,
+            weights,
+            tasks,
+            episodes,
+            wake_workers,
+            wakeup,
+        })
+    }
+
+    /// The node (for WaitSets, dead-node cleanup and termination requests).
+    pub fn node(&self) -> &Node<S> {
+        &self.node
+    }
+
+    /// The listener woken by workers; attach it to a WaitSet.
+    pub fn listener(&self) -> &Listener<S> {
+        &self.wakeup
+    }
+
+    /// Announces the run (kept as history for late joiners); `finished` tells workers to leave.
+    pub fn announce(&self, zeta_dim: usize, finished: bool) -> Result<(), TransportError> {
+        let info = RunInfo {
+            magic: MAGIC,
+            protocol: PROTOCOL_VERSION,
+            zeta_dim: zeta_dim as u32,
+            n_params: self.sizes.n_params as u32,
+            episode_cap: self.sizes.episode_cap as u32,
+            run_id: run_id_bytes(&self.run_id),
+            finished: u32::from(finished),
+            _pad: 0,
+        };
+        self.run_info
+            .send_copy(info)
+            .map_err(|e| TransportError::Send { service: self.names.run_info(), reason: format!("{e:?}") })?;
+        self.notify_workers()
+    }
+
+    /// Broadcasts θ_k, ζ_k and α_k for iteration `k`.
+    pub fn publish_weights(&self, k: u64, alpha: f64, zeta: &[f64], params: &[f32]) -> Result<(), TransportError> {
+        let service = self.names.weights();
+        let send_err =
+            |e: &dyn std::fmt::Debug| TransportError::Send { service: service.clone(), reason: format!("{e:?}") };
+        if params.len() != self.sizes.n_params || zeta.len() > envpg_protocol::MAX_ZETA {
+            return Err(TransportError::Malformed { service, reason: "weights do not match the link sizes".into() });
+        }
+        let mut sample = self.weights.loan_slice_uninit(params.len()).map_err(|e| send_err(&e))?;
+        let h = sample.user_header_mut();
+        h.protocol = PROTOCOL_VERSION;
+        h.zeta_dim = zeta.len() as u32;
+        h.run_id = run_id_bytes(&self.run_id);
+        h.k = k;
+        h.n_params = params.len() as u64;
+        h.alpha = alpha;
+        h.zeta = [0.0; envpg_protocol::MAX_ZETA];
+        h.zeta[..zeta.len()].copy_from_slice(zeta);
+        let sample = sample.write_from_slice(params);
+        sample.send().map_err(|e| send_err(&e))?;
+        Ok(())
+    }
+
+    /// Assigns `episodes` of iteration `k` to worker `worker_id` (incarnation `incarnation`).
+    pub fn assign(
+        &self,
+        worker_id: u32,
+        incarnation: u64,
+        k: u64,
+        episodes: &[EpisodeId],
+    ) -> Result<(), TransportError> {
+        let service = self.names.tasks();
+        let send_err =
+            |e: &dyn std::fmt::Debug| TransportError::Send { service: service.clone(), reason: format!("{e:?}") };
+        let mut sample = self.tasks.loan_slice_uninit(episodes.len()).map_err(|e| send_err(&e))?;
+        let h = sample.user_header_mut();
+        h.protocol = PROTOCOL_VERSION;
+        h.worker_id = worker_id;
+        h.run_id = run_id_bytes(&self.run_id);
+        h.k = k;
+        h.incarnation = incarnation;
+        sample.write_from_slice(episodes).send().map_err(|e| send_err(&e))?;
+        Ok(())
+    }
+
+    /// Connects publishers to subscribers that appeared since the last send, delivering them
+    /// the kept history (run info, latest weights). Call regularly: late joiners get nothing
+    /// until the publisher side updates its connections.
+    pub fn refresh(&self) {
+        let _ = self.run_info.update_connections();
+        let _ = self.weights.update_connections();
+    }
+
+    /// Wakes every worker's WaitSet.
+    pub fn notify_workers(&self) -> Result<(), TransportError> {
+        self.wake_workers
+            .notify()
+            .map(|_| ())
+            .map_err(|e| TransportError::Send { service: self.names.worker_wakeup(), reason: format!("{e:?}") })
+    }
+
+    /// Drains the wake-up events (call after the WaitSet fired).
+    pub fn drain_wakeups(&self) {
+        let _ = self.wakeup.try_wait(|_| {});
+    }
+
+    /// All pending hello messages.
+    pub fn receive_hellos(&self) -> Result<Vec<Hello>, TransportError> {
+        let mut out = Vec::new();
+        loop {
+            match self.hello.receive() {
+                Ok(Some(s)) => out.push(*s.payload()),
+                Ok(None) => return Ok(out),
+                Err(e) => {
+                    return Err(TransportError::Receive { service: self.names.hello(), reason: format!("{e:?}") });
+                }
+            }
+        }
+    }
+
+    /// Calls `f` with every pending episode message.
+    pub fn receive_episodes(&self, mut f: impl FnMut(&EpisodeHeader, &[StepRecord])) -> Result<usize, TransportError> {
+        let mut n = 0;
+        loop {
+            match self.episodes.receive() {
+                Ok(Some(s)) => {
+                    f(s.user_header(), s.payload());
+                    n += 1;
+                }
+                Ok(None) => return Ok(n),
+                Err(e) => {
+                    return Err(TransportError::Receive { service: self.names.episodes(), reason: format!("{e:?}") });
+                }
+            }
+        }
+    }
+
+    /// Removes the resources of crashed nodes (e.g. a killed worker's ports), returning how many
+    /// nodes were cleaned up.
+    pub fn cleanup_dead_nodes(&self) -> usize {
+        self.node.try_cleanup_dead_nodes().cleanups as usize
+    }
+}
+
+/// A worker's side of the link.
+#[derive(Debug)]
+pub struct WorkerEnd<S: Service> {
+    node: Node<S>,
+    names: ServiceNames,
+    run_id: String,
+    info: std::cell::Cell<RunInfo>,
+    run_info: Subscriber<S, RunInfo, ()>,
+    hello: Publisher<S, Hello, ()>,
+    weights: Subscriber<S, [f32], WeightsHeader>,
+    tasks: Subscriber<S, [EpisodeId], TaskHeader>,
+    episodes: Publisher<S, [StepRecord], EpisodeHeader>,
+    wake_learner: Notifier<S>,
+    wakeup: Listener<S>,
+}
+
+impl<S: Service> WorkerEnd<S> {
+    /// Joins run `run_id`: waits up to `timeout` for the learner's run info, checks its
+    /// protocol version (announcing `protocol` ourselves — normally [`PROTOCOL_VERSION`]), then
+    /// opens the versioned services.
+    pub fn open(run_id: &str, worker_id: u32, protocol: u32, timeout: Duration) -> Result<Self, TransportError> {
+        let node = node::<S>(&format!("envpg-worker{worker_id}-{run_id}"))?;
+        let names = ServiceNames::new(run_id);
+        let start = Instant::now();
+        let n = names.run_info();
+        let run_info_service = loop {
+            match node.service_builder(&service_name(&n)?).publish_subscribe::<RunInfo>().open() {
+                Ok(s) => break s,
+                Err(e) if start.elapsed() < timeout => {
+                    tracing::debug!("waiting for the learner's run info: {e:?}");
+                    if node.wait(Duration::from_millis(20)).is_err() {
+                        return Err(TransportError::NoLearner {
+                            run_id: run_id.to_owned(),
+                            seconds: start.elapsed().as_secs_f64(),
+                        });
+                    }
+                }
+                Err(_) => {
+                    return Err(TransportError::NoLearner {
+                        run_id: run_id.to_owned(),
+                        seconds: timeout.as_secs_f64(),
+                    });
+                }
+            }
+        };
+        let run_info = run_info_service
+            .subscriber_builder()
+            .history_request(1)
+            .create()
+            .map_err(|e| port_err("subscriber", &n, e))?;
+        let info = loop {
+            match run_info.receive() {
+                Ok(Some(s)) => break *s.payload(),
+                Ok(None) if start.elapsed() < timeout => {
+                    if node.wait(Duration::from_millis(5)).is_err() {
+                        return Err(TransportError::NoLearner {
+                            run_id: run_id.to_owned(),
+                            seconds: start.elapsed().as_secs_f64(),
+                        });
+                    }
+                }
+                Ok(None) => {
+                    return Err(TransportError::NoLearner {
+                        run_id: run_id.to_owned(),
+                        seconds: timeout.as_secs_f64(),
+                    });
+                }
+                Err(e) => return Err(TransportError::Receive { service: n, reason: format!("{e:?}") }),
+            }
+        };
+        let n = names.hello();
+        let hello = node
+            .service_builder(&service_name(&n)?)
+            .publish_subscribe::<Hello>()
+            .open()
+            .map_err(|e| svc_err(&n, e))?
+            .publisher_builder()
+            .create()
+            .map_err(|e| port_err("publisher", &n, e))?;
+        if info.magic != MAGIC || info.protocol != protocol {
+            // Tell the learner why we leave, in the version-agnostic format, then refuse.
+            let refuse = Hello {
+                magic: MAGIC,
+                protocol,
+                kind: envpg_protocol::hello_kind::REFUSE,
+                worker_id,
+                pid: std::process::id(),
+                incarnation: 0,
+                run_id: run_id_bytes(run_id),
+                detail: u64::from(info.protocol),
+            };
+            let _ = hello.send_copy(refuse);
+            // A publisher's samples vanish with it: linger so the learner can read the refusal.
+            let _ = node.wait(Duration::from_millis(300));
+            return Err(TransportError::Version {
+                run_id: run_id.to_owned(),
+                learner: info.protocol,
+                worker: protocol,
+            });
+        }
+        let n = names.weights();
+        let weights = node
+            .service_builder(&service_name(&n)?)
+            .publish_subscribe::<[f32]>()
+            .user_header::<WeightsHeader>()
+            .open()
+            .map_err(|e| svc_err(&n, e))?
+            .subscriber_builder()
+            .history_request(1)
+            .create()
+            .map_err(|e| port_err("subscriber", &n, e))?;
+        let n = names.tasks();
+        let tasks = node
+            .service_builder(&service_name(&n)?)
+            .publish_subscribe::<[EpisodeId]>()
+            .user_header::<TaskHeader>()
+            .open()
+            .map_err(|e| svc_err(&n, e))?
+            .subscriber_builder()
+            .create()
+            .map_err(|e| port_err("subscriber", &n, e))?;
+        let n = names.episodes();
+        let episodes = node
+            .service_builder(&service_name(&n)?)
+            .publish_subscribe::<[StepRecord]>()
+            .user_header::<EpisodeHeader>()
+            .open()
+            .map_err(|e| svc_err(&n, e))?
+            .publisher_builder()
+            .initial_max_slice_len((info.episode_cap as usize).max(1))
+            .create()
+            .map_err(|e| port_err("publisher", &n, e))?;
+        let n = names.learner_wakeup();
+        let wake_learner = node
+            .service_builder(&service_name(&n)?)
+            .event()
+            .open()
+            .map_err(|e| svc_err(&n, e))?
+            .notifier_builder()
+            .create()
+            .map_err(|e| port_err("notifier", &n, e))?;
+        let n = names.worker_wakeup();
+        let wakeup = node
+            .service_builder(&service_name(&n)?)
+            .event()
+            .open()
+            .map_err(|e| svc_err(&n, e))?
+            .listener_builder()
+            .create()
+            .map_err(|e| port_err("listener", &n, e))?;
+        // Connect the subscribers before announcing ourselves: messages sent to a subscriber
+        // that has not connected yet can be lost.
+        let _ = tasks.has_samples();
+        let _ = weights.has_samples();
+        Ok(Self {
+            node,
+            names,
+            run_id: run_id.to_owned(),
+            info: std::cell::Cell::new(info),
+            run_info,
+            hello,
+            weights,
+            tasks,
+            episodes,
+            wake_learner,
+            wakeup,
+        })
+    }
+
+    /// The node (for WaitSets and termination requests).
+    pub fn node(&self) -> &Node<S> {
+        &self.node
+    }
+
+    /// The listener woken by the learner; attach it to a WaitSet.
+    pub fn listener(&self) -> &Listener<S> {
+        &self.wakeup
+    }
+
+    /// The latest run info.
+    pub fn info(&self) -> RunInfo {
+        self.info.get()
+    }
+
+    /// Whether the learner announced the end of the run.
+    pub fn run_finished(&self) -> Result<bool, TransportError> {
+        loop {
+            match self.run_info.receive() {
+                Ok(Some(s)) => self.info.set(*s.payload()),
+                Ok(None) => return Ok(self.info.get().finished != 0),
+                Err(e) => {
+                    return Err(TransportError::Receive { service: self.names.run_info(), reason: format!("{e:?}") });
+                }
+            }
+        }
+    }
+
+    /// Sends a hello of `kind` for worker `worker_id`, incarnation `incarnation`, and wakes the
+    /// learner.
+    pub fn say(&self, kind: u32, worker_id: u32, incarnation: u64) -> Result<(), TransportError> {
+        let msg = Hello {
+            magic: MAGIC,
+            protocol: PROTOCOL_VERSION,
+            kind,
+            worker_id,
+            pid: std::process::id(),
+            incarnation,
+            run_id: run_id_bytes(&self.run_id),
+            detail: 0,
+        };
+        self.hello
+            .send_copy(msg)
+            .map_err(|e| TransportError::Send { service: self.names.hello(), reason: format!("{e:?}") })?;
+        self.notify_learner()
+    }
+
+    /// The newest weights message, if one arrived since the last call.
+    pub fn latest_weights(&self) -> Result<Option<(WeightsHeader, Vec<f32>)>, TransportError> {
+        let mut latest = None;
+        loop {
+            match self.weights.receive() {
+                Ok(Some(s)) => latest = Some((*s.user_header(), s.payload().to_vec())),
+                Ok(None) => return Ok(latest),
+                Err(e) => {
+                    return Err(TransportError::Receive { service: self.names.weights(), reason: format!("{e:?}") });
+                }
+            }
+        }
+    }
+
+    /// Every task message that arrived since the last call (for any worker; filter by id).
+    pub fn take_tasks(&self) -> Result<Vec<(TaskHeader, Vec<EpisodeId>)>, TransportError> {
+        let mut out = Vec::new();
+        loop {
+            match self.tasks.receive() {
+                Ok(Some(s)) => out.push((*s.user_header(), s.payload().to_vec())),
+                Ok(None) => return Ok(out),
+                Err(e) => {
+                    return Err(TransportError::Receive { service: self.names.tasks(), reason: format!("{e:?}") });
+                }
+            }
+        }
+    }
+
+    /// Publishes one episode's records under `header` (no wake-up; call
+    /// [`WorkerEnd::notify_learner`] once per batch).
+    pub fn publish_episode(
+        &self,
+        header: EpisodeHeader,
+        records: impl ExactSizeIterator<Item = StepRecord>,
+    ) -> Result<(), TransportError> {
+        let service = self.names.episodes();
+        let send_err =
+            |e: &dyn std::fmt::Debug| TransportError::Send { service: service.clone(), reason: format!("{e:?}") };
+        if records.len() > self.info.get().episode_cap as usize {
+            return Err(TransportError::Malformed {
+                service,
+                reason: format!("episode of {} steps exceeds the cap", records.len()),
+            });
+        }
+        let mut sample = self.episodes.loan_slice_uninit(records.len()).map_err(|e| send_err(&e))?;
+        *sample.user_header_mut() = header;
+        let mut it = records;
+        let sample = sample.write_from_fn(|_| it.next().expect("exact size"));
+        sample.send().map_err(|e| send_err(&e))?;
+        Ok(())
+    }
+
+    /// Wakes the learner's WaitSet.
+    pub fn notify_learner(&self) -> Result<(), TransportError> {
+        self.wake_learner
+            .notify()
+            .map(|_| ())
+            .map_err(|e| TransportError::Send { service: self.names.learner_wakeup(), reason: format!("{e:?}") })
+    }
+
+    /// Drains the wake-up events (call after the WaitSet fired).
+    pub fn drain_wakeups(&self) {
+        let _ = self.wakeup.try_wait(|_| {});
+    }
+}

@@ -1,0 +1,267 @@
+//! # envpg-worker
+//!
+//! The rollout worker: a thin process shell around the worker side of Algorithm 1
+//! ([`envpg_ac::rollout::run_episode`]).
+//!
+//! [`run_worker`] joins a run through [`envpg_transport::WorkerEnd`], announces itself, then
+//! blocks in a WaitSet. When the learner's weights for iteration k and a task naming this worker
+//! have arrived, it builds π_θk(·|·, ζ_k) from the broadcast weights, runs the assigned episodes
+//! (each from its own RNG stream, so the result does not depend on which worker runs it) and
+//! publishes them, one message per episode and one wake-up per task. A heartbeat keeps the
+//! learner informed; SIGINT/SIGTERM or the learner's end-of-run notice end the loop cleanly.
+//!
+//! [`CostlyEnv`] adds a fixed amount of real compute per step, to study scaling when the
+//! environment, not the learner, dominates.
+
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+use envpg_ac::features::Features;
+use envpg_ac::nets::ActionSets;
+use envpg_ac::rollout::{Episode, EpisodeKind, run_episode};
+use envpg_ac::table::PolicyTable;
+use envpg_ac::trainer::RunSpec;
+use envpg_core::{ParamMdp, Streams, UavNetwork};
+use envpg_nn::{Mlp, MlpSpec};
+use envpg_protocol::{EpisodeHeader, EpisodeId, MAX_ZETA, StepRecord, hello_kind, run_id_bytes};
+use envpg_transport::{TransportError, WorkerEnd};
+use iceoryx2::prelude::*;
+use iceoryx2::waitset::WaitSetRunResult;
+use rand::Rng;
+
+/// How a worker is started.
+#[derive(Debug, Clone)]
+pub struct WorkerConfig {
+    /// Run id (names the services).
+    pub run_id: String,
+    /// The run: instance, κ, η, seed, settings.
+    pub spec: RunSpec,
+    /// Worker slot.
+    pub worker_id: u32,
+    /// Distinguishes this process from an earlier one in the same slot.
+    pub incarnation: u64,
+    /// Protocol version to announce (normally [`envpg_protocol::PROTOCOL_VERSION`]).
+    pub protocol: u32,
+    /// How long to wait for the learner to appear.
+    pub join_timeout: Duration,
+    /// Heartbeat period.
+    pub heartbeat: Duration,
+    /// Extra compute per environment step, in microseconds (benchmarks).
+    pub emulator_cost_us: u64,
+}
+
+/// How a worker ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WorkerExit {
+    /// The learner announced the end of the run.
+    Finished,
+    /// SIGINT or SIGTERM.
+    Terminated,
+}
+
+/// Why a worker failed.
+#[derive(Debug, thiserror::Error)]
+pub enum WorkerError {
+    /// The link failed.
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+    /// The run specification is unusable.
+    #[error("run specification: {0}")]
+    Spec(String),
+    /// The learner's weights do not fit this run's networks.
+    #[error("weights for iteration {k} have {got} parameters, the actor has {expected}")]
+    Weights {
+        /// Iteration.
+        k: u64,
+        /// Received.
+        got: usize,
+        /// Expected.
+        expected: usize,
+    },
+    /// The WaitSet failed.
+    #[error("waiting for events: {0}")]
+    Wait(String),
+}
+
+/// An environment that burns `cost` of real compute per step before delegating.
+#[derive(Debug, Clone)]
+pub struct CostlyEnv<E> {
+    /// The real environment.
+    pub inner: E,
+    /// Busy time per step.
+    pub cost: Duration,
+}
+
+impl<E: ParamMdp> ParamMdp for CostlyEnv<E> {
+    fn n_states(&self) -> usize {
+        self.inner.n_states()
+    }
+    fn n_actions(&self) -> usize {
+        self.inner.n_actions()
+    }
+    fn zeta_dim(&self) -> usize {
+        self.inner.zeta_dim()
+    }
+    fn valid_actions(&self, s: usize) -> &[usize] {
+        self.inner.valid_actions(s)
+    }
+    fn is_terminal(&self, s: usize) -> bool {
+        self.inner.is_terminal(s)
+    }
+    fn sample_initial<R: Rng + ?Sized>(&self, rng: &mut R) -> usize {
+        self.inner.sample_initial(rng)
+    }
+    fn sample_exploring_start<R: Rng + ?Sized>(&self, rng: &mut R) -> usize {
+        self.inner.sample_exploring_start(rng)
+    }
+    fn step<R: Rng + ?Sized>(&self, s: usize, a: usize, zeta: &[f64], rng: &mut R) -> (usize, f64) {
+        if !self.cost.is_zero() {
+            let start = Instant::now();
+            let mut x = 0u64;
+            // Real work the optimiser cannot remove, until the budget is spent.
+            while start.elapsed() < self.cost {
+                for i in 0..64u64 {
+                    x = x.wrapping_mul(6364136223846793005).wrapping_add(i);
+                }
+                std::hint::black_box(x);
+            }
+        }
+        self.inner.step(s, a, zeta, rng)
+    }
+    fn gamma(&self) -> f64 {
+        self.inner.gamma()
+    }
+}
+
+/// Converts an episode to protocol records.
+pub fn records(ep: &Episode, d: usize) -> impl ExactSizeIterator<Item = StepRecord> + '_ {
+    (0..ep.len()).map(move |t| {
+        let mut zeta = [0.0f32; MAX_ZETA];
+        zeta[..d].copy_from_slice(&ep.zeta[t * d..(t + 1) * d]);
+        StepRecord { s: ep.s[t], a: ep.a[t], s2: ep.s2[t], cost: ep.cost[t], zeta }
+    })
+}
+
+/// The kind of an episode id.
+pub fn kind_of(id: &EpisodeId) -> EpisodeKind {
+    if id.kind == 0 { EpisodeKind::OnPolicy } else { EpisodeKind::Explore }
+}
+
+/// The rollout state needed to run episodes of one iteration.
+struct Rollout {
+    env: CostlyEnv<UavNetwork>,
+    sets: ActionSets,
+    features: Features,
+    actor: Mlp<f32>,
+    streams: Streams,
+}
+
+/// Runs a worker until the run ends or it is asked to stop.
+pub fn run_worker<S: Service>(cfg: &WorkerConfig) -> Result<WorkerExit, WorkerError>
+where
+    iceoryx2::port::listener::Listener<S>: SynchronousMultiplexing,
+{
+    let spec = &cfg.spec;
+    let net =
+        UavNetwork::new(spec.instance.clone(), spec.kappa, spec.eta).map_err(|e| WorkerError::Spec(e.to_string()))?;
+    let ac = &spec.config;
+    let features = Features::new(&net, ac.zeta_input, ac.sigma);
+    let mlp_spec = MlpSpec { onehot: features.onehot(), dense: features.dense_dim(), hidden: ac.hidden.clone() };
+    // The shape only: parameters come from the learner.
+    let actor = Mlp::<f32>::new(mlp_spec, &mut Streams::new(0).stream(envpg_core::Purpose::Init, 0, 0), true);
+    let mut ro = Rollout {
+        sets: ActionSets::new(&net),
+        env: CostlyEnv { inner: net, cost: Duration::from_micros(cfg.emulator_cost_us) },
+        features,
+        actor,
+        streams: Streams::new(spec.seed),
+    };
+    let d = ro.env.zeta_dim();
+
+    let end = WorkerEnd::<S>::open(&cfg.run_id, cfg.worker_id, cfg.protocol, cfg.join_timeout)?;
+    end.say(hello_kind::JOIN, cfg.worker_id, cfg.incarnation)?;
+    let waitset = WaitSetBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .create::<S>()
+        .map_err(|e| WorkerError::Wait(format!("{e:?}")))?;
+    let _wake = waitset.attach_notification(end.listener()).map_err(|e| WorkerError::Wait(format!("{e:?}")))?;
+    let _tick = waitset.attach_interval(cfg.heartbeat).map_err(|e| WorkerError::Wait(format!("{e:?}")))?;
+
+    let mut weights: Option<(envpg_protocol::WeightsHeader, Vec<f32>)> = None;
+    let mut tasks: BTreeMap<u64, Vec<EpisodeId>> = BTreeMap::new();
+    let mut seq = 0u64;
+    let mut last_beat = Instant::now();
+    let run_id = run_id_bytes(&cfg.run_id);
+    loop {
+        let r = waitset
+            .wait_and_process_once_with_timeout(|_| CallbackProgression::Continue, cfg.heartbeat)
+            .map_err(|e| WorkerError::Wait(format!("{e:?}")))?;
+        if matches!(r, WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt) {
+            let _ = end.say(hello_kind::LEAVE, cfg.worker_id, cfg.incarnation);
+            return Ok(WorkerExit::Terminated);
+        }
+        end.drain_wakeups();
+        if end.run_finished()? {
+            let _ = end.say(hello_kind::LEAVE, cfg.worker_id, cfg.incarnation);
+            return Ok(WorkerExit::Finished);
+        }
+        if let Some(w) = end.latest_weights()?
+            && weights.as_ref().is_none_or(|(h, _)| w.0.k >= h.k)
+        {
+            if w.1.len() != ro.actor.n_params() {
+                return Err(WorkerError::Weights { k: w.0.k, got: w.1.len(), expected: ro.actor.n_params() });
+            }
+            weights = Some(w);
+        }
+        for (h, ids) in end.take_tasks()? {
+            if h.worker_id == cfg.worker_id && h.incarnation == cfg.incarnation && h.run_id == run_id {
+                tasks.entry(h.k).or_default().extend(ids);
+            }
+        }
+        if let Some((h, params)) = &weights {
+            // Tasks for older iterations are stale; newer ones wait for their weights.
+            tasks.retain(|&k, _| k >= h.k);
+            if let Some(ids) = tasks.remove(&h.k) {
+                ro.actor.set_params(params);
+                let zeta = &h.zeta[..h.zeta_dim as usize];
+                let mut table = PolicyTable::new(&ro.actor, &ro.features, &ro.sets, zeta);
+                for id in &ids {
+                    let ep = run_episode(
+                        &ro.env,
+                        &ro.sets,
+                        &mut table,
+                        zeta,
+                        &spec.config,
+                        &ro.streams,
+                        kind_of(id),
+                        h.k,
+                        id.index as u64,
+                    );
+                    let header = EpisodeHeader {
+                        protocol: envpg_protocol::PROTOCOL_VERSION,
+                        worker_id: cfg.worker_id,
+                        run_id,
+                        k: h.k,
+                        episode: *id,
+                        seq,
+                        len: ep.len() as u32,
+                        capped: u32::from(ep.capped),
+                        zeta_dim: d as u32,
+                        _pad: 0,
+                    };
+                    seq += 1;
+                    end.publish_episode(header, records(&ep, d))?;
+                    if last_beat.elapsed() >= cfg.heartbeat {
+                        end.say(hello_kind::HEARTBEAT, cfg.worker_id, cfg.incarnation)?;
+                        last_beat = Instant::now();
+                    }
+                }
+                end.notify_learner()?;
+            }
+        }
+        if last_beat.elapsed() >= cfg.heartbeat {
+            end.say(hello_kind::HEARTBEAT, cfg.worker_id, cfg.incarnation)?;
+            last_beat = Instant::now();
+        }
+    }
+}

@@ -1,0 +1,134 @@
+//! Running the `envpg-launch` binary from tests, with watchdog timeouts.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// The built `envpg-launch` next to this test executable (target/<profile>/).
+pub fn binary() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable");
+    let dir = exe.parent().and_then(Path::parent).expect("target/<profile>");
+    let bin = dir.join("envpg-launch");
+    assert!(bin.exists(), "{} is not built (the test command builds every workspace binary)", bin.display());
+    bin
+}
+
+/// Starts `envpg-launch` with `args`.
+pub fn start(args: &[String]) -> Child {
+    Command::new(binary())
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("envpg-launch starts")
+}
+
+/// Waits for `child` with a watchdog: kills it and panics after `limit`.
+pub fn wait(mut child: Child, limit: Duration) -> Output {
+    let start = Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return child.wait_with_output().expect("output");
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let out = child.wait_with_output().expect("output");
+            panic!(
+                "watchdog: envpg-launch still running after {limit:?}\nstderr:\n{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Runs `envpg-launch` to completion under a watchdog.
+pub fn run(args: &[String], limit: Duration) -> Output {
+    wait(start(args), limit)
+}
+
+/// Processes whose command line contains every needle, as (pid, command line).
+pub fn processes_with(needles: &[&str]) -> Vec<(i32, String)> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir("/proc").expect("/proc") {
+        let Ok(entry) = entry else { continue };
+        let Ok(pid) = entry.file_name().to_string_lossy().parse::<i32>() else { continue };
+        let Ok(raw) = std::fs::read(entry.path().join("cmdline")) else { continue };
+        let cmd = String::from_utf8_lossy(&raw).replace('\0', " ");
+        if needles.iter().all(|n| cmd.contains(n)) {
+            out.push((pid, cmd));
+        }
+    }
+    out
+}
+
+/// Polls until `f` is true, panicking after `limit`.
+pub fn until(what: &str, limit: Duration, mut f: impl FnMut() -> bool) {
+    let start = Instant::now();
+    while !f() {
+        assert!(start.elapsed() < limit, "watchdog: {what} did not happen within {limit:?}");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// Sends `sig` to `pid`.
+pub fn signal(pid: i32, sig: i32) {
+    // SAFETY: kill(2) on a pid of our test's own processes.
+    unsafe {
+        libc::kill(pid, sig);
+    }
+}
+
+/// A tiny instance file in `dir`, returned as a path string.
+pub fn tiny_instance_file(dir: &Path) -> String {
+    let inst = super::tiny_instance(20, 3, 5);
+    let p = dir.join("tiny.json");
+    std::fs::write(&p, inst.to_json_pretty()).unwrap();
+    p.display().to_string()
+}
+
+/// The common options of a small, quick training run on `instance`.
+pub fn small_run(instance: &str, seed: u64, iterations: usize) -> Vec<String> {
+    [
+        "--instance",
+        instance,
+        "--seed",
+        &seed.to_string(),
+        "--kappa",
+        "0.9",
+        "--iterations",
+        &iterations.to_string(),
+        "--episodes",
+        "16",
+        "--explore-episodes",
+        "8",
+        "--hidden",
+        "32",
+        "--batch",
+        "128",
+        "--warmup",
+        "20",
+        "--eval-every",
+        "20",
+        "--quiet",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect()
+}
+
+/// A result file without its timing fields, for bitwise comparisons.
+pub fn comparable(path: &Path) -> serde_json::Value {
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).expect("result file")).expect("json");
+    v["seconds"] = serde_json::Value::Null;
+    v["details"] = serde_json::Value::Null;
+    v
+}
+
+/// Args plus extras.
+pub fn with(mut base: Vec<String>, extra: &[&str]) -> Vec<String> {
+    base.extend(extra.iter().map(|s| s.to_string()));
+    base
+}
