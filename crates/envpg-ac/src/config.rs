@@ -116,6 +116,9 @@ pub struct AcConfig {
     pub zeta_lr_decay: f64,
     /// Clip the norm of the ζ-gradient estimate at this value (0: no clipping).
     pub zeta_clip: f64,
+    /// The reported design is the average of ζ_k over this final fraction of the iterations
+    /// (Polyak–Ruppert averaging of the noisy ζ iterates; 0 reports the last iterate).
+    pub zeta_average: f64,
     /// ζ-gradient estimator.
     pub zeta_estimator: ZetaEstimator,
     /// ζ update rule.
@@ -171,6 +174,7 @@ impl Default for AcConfig {
             zeta_lr: 0.02,
             zeta_lr_decay: 1.0,
             zeta_clip: 2.0,
+            zeta_average: 0.25,
             zeta_estimator: ZetaEstimator::Corollary,
             zeta_optimizer: ZetaOptimizer::Sgd,
             loop_tolerance: 0.05,
@@ -249,6 +253,11 @@ impl AcConfig {
         }
     }
 
+    /// First iteration whose ζ enters the reported average.
+    pub fn average_from(&self) -> usize {
+        ((1.0 - self.zeta_average) * self.iterations as f64).floor() as usize
+    }
+
     /// α at iteration k of the nominal schedule (before any loop back-off).
     pub fn alpha_at(&self, k: usize) -> f64 {
         self.alpha0 * self.upsilon().powi(k as i32)
@@ -309,6 +318,9 @@ impl AcConfig {
         }
         if !(self.alpha_backoff.is_finite() && self.alpha_backoff > 0.0 && self.alpha_backoff <= 1.0) {
             return err("alpha_backoff", format!("must be in (0, 1], got {}", self.alpha_backoff));
+        }
+        if !(self.zeta_average.is_finite() && (0.0..1.0).contains(&self.zeta_average)) {
+            return err("zeta_average", format!("must be in [0, 1), got {}", self.zeta_average));
         }
         if !finite_pos(self.alpha0) {
             return err("alpha0", format!("must be finite and > 0, got {}", self.alpha0));

@@ -105,6 +105,10 @@ pub struct LearnerState {
     pub zeta_opt: Adam,
     /// Recent on-policy visits of each state (exponential average), for idle relocation.
     pub visits: Vec<f64>,
+    /// Running sum of the designs ζ_{k+1} entering the reported average, and their count.
+    pub zeta_sum: Vec<f64>,
+    /// Number of designs in `zeta_sum`.
+    pub zeta_count: u64,
 }
 
 /// The learner.
@@ -123,6 +127,8 @@ pub struct Learner {
     zeta_opt: Adam,
     /// Recent on-policy visits per state.
     visits: Vec<f64>,
+    zeta_sum: Vec<f64>,
+    zeta_count: u64,
     /// States whose positions are read from ζ, with their ζ index.
     zeta_states: Vec<(usize, usize)>,
     zeta: Vec<f64>,
@@ -165,6 +171,8 @@ impl Learner {
         Self {
             zeta_opt,
             visits: vec![0.0; env.n_states()],
+            zeta_sum: vec![0.0; zeta0.len()],
+            zeta_count: 0,
             zeta_states,
             cfg,
             features,
@@ -191,6 +199,16 @@ impl Learner {
     /// ζ_k.
     pub fn zeta(&self) -> &[f64] {
         &self.zeta
+    }
+
+    /// The design to report: the average of the iterates since `average_from`, or ζ_k when
+    /// none were averaged.
+    pub fn reported_zeta(&self) -> Vec<f64> {
+        if self.zeta_count == 0 {
+            self.zeta.clone()
+        } else {
+            self.zeta_sum.iter().map(|s| s / self.zeta_count as f64).collect()
+        }
     }
     /// α_k.
     pub fn alpha(&self) -> f64 {
@@ -231,6 +249,8 @@ impl Learner {
             critic_opt: self.critic_opt.clone(),
             zeta_opt: self.zeta_opt.clone(),
             visits: self.visits.clone(),
+            zeta_sum: self.zeta_sum.clone(),
+            zeta_count: self.zeta_count,
         }
     }
 
@@ -257,6 +277,11 @@ impl Learner {
             return Err("checkpoint visit counts do not match this environment".into());
         }
         self.visits = st.visits;
+        if st.zeta_sum.len() != self.zeta.len() {
+            return Err("checkpoint design average does not match this environment".into());
+        }
+        self.zeta_sum = st.zeta_sum;
+        self.zeta_count = st.zeta_count;
         self.zeta = st.zeta;
         self.features.set_center(&self.zeta);
         self.alpha = st.alpha;
@@ -275,9 +300,10 @@ impl Learner {
         q.iter().map(|&x| x as f64).collect()
     }
 
-    /// π_θk(·|·, ζ_k): what the workers sample from (rows are filled on demand).
-    pub fn policy_table(&self) -> PolicyTable {
-        PolicyTable::new(&self.actor.mlp, &self.features, &self.sets, &self.zeta)
+    /// π_θk(·|·, ζ_k): what the workers sample from (rows are filled on demand). It holds its
+    /// own copy of θ_k, so the learner can keep updating while it is in use.
+    pub fn policy_table(&self) -> PolicyTable<'static> {
+        PolicyTable::owned(&self.actor.mlp, &self.features, &self.sets, &self.zeta)
     }
 
     fn flatten(&self, batch: &Batch) -> Result<Flat, LearnerError> {
@@ -365,20 +391,27 @@ impl Learner {
         let capped_on = on.iter().filter(|e| e.capped).count();
         let looping = cfg.loop_tolerance < 1.0 && capped_on as f64 > cfg.loop_tolerance * on.len() as f64;
         stats.looping = looping;
-        // The EnvPG estimate is for π_θk: take it before the actor moves.
-        let grad = if self.k >= cfg.warmup as u64 && !on.is_empty() && !looping {
-            Some(self.zeta_gradient(&on))
-        } else {
-            None
-        };
-        if !flat.s.is_empty() {
-            for step in 0..cfg.actor_steps {
-                stats.actor_loss = match cfg.actor_update {
-                    ActorUpdate::GibbsFit => self.actor_gibbs_step(&flat, step),
-                    ActorUpdate::Pg => self.actor_pg_step(&on),
-                };
+        // The EnvPG estimate is for π_θk, so it uses a copy of the actor taken before the actor
+        // step; the two are independent and run on two threads when the machine has them.
+        let estimate = self.k >= cfg.warmup as u64 && !on.is_empty() && !looping;
+        let mut nets = estimate.then(|| (self.actor.clone(), self.critic.clone()));
+        let (features, sets, zeta) = (self.features.clone(), self.sets.clone(), self.zeta.clone());
+        let grad = std::thread::scope(|scope| {
+            let job = nets.as_mut().map(|(actor, critic)| {
+                let on = &on;
+                let (features, sets, zeta) = (&features, &sets, &zeta);
+                scope.spawn(move || zeta_gradient(actor, critic, features, sets, zeta, on, cfg.zeta_estimator))
+            });
+            if !flat.s.is_empty() {
+                for step in 0..cfg.actor_steps {
+                    stats.actor_loss = match cfg.actor_update {
+                        ActorUpdate::GibbsFit => self.actor_gibbs_step(&flat, step),
+                        ActorUpdate::Pg => self.actor_pg_step(&on),
+                    };
+                }
             }
-        }
+            job.map(|h| h.join().expect("ζ-gradient thread"))
+        });
         if let Some(g) = grad {
             let norm = g.iter().map(|x| x * x).sum::<f64>().sqrt();
             let clip = if cfg.zeta_clip > 0.0 && norm > cfg.zeta_clip { cfg.zeta_clip / norm } else { 1.0 };
@@ -400,6 +433,12 @@ impl Learner {
             self.features.set_center(&self.zeta);
         }
         stats.relocated = self.track_and_relocate(&on);
+        if self.k as usize >= cfg.average_from() {
+            for (s, z) in self.zeta_sum.iter_mut().zip(&self.zeta) {
+                *s += z;
+            }
+            self.zeta_count += 1;
+        }
         debug_assert_eq!(self.zeta.len(), d);
         self.k += 1;
         self.alpha *= cfg.upsilon() * if looping { cfg.alpha_backoff } else { 1.0 };
@@ -646,21 +685,7 @@ impl Learner {
     /// Columns of every valid action of every on-policy step at `zeta`, and per step
     /// `(first column, number of actions, index of the taken action)`.
     fn on_policy_columns(&self, on: &[&Episode], zeta: &[f64]) -> (Columns, Vec<(usize, usize, usize)>) {
-        let mut cols = Columns::default();
-        let mut taken = Vec::new();
-        for ep in on {
-            for t in 0..ep.len() {
-                let s = ep.s[t] as usize;
-                let acts = self.sets.of(s);
-                let start = cols.len();
-                for &a in acts {
-                    cols.push(&self.features, s, a, zeta, 0);
-                }
-                let k = acts.iter().position(|&a| a == ep.a[t] as usize).expect("validated");
-                taken.push((start, acts.len(), k));
-            }
-        }
-        (cols, taken)
+        on_policy_columns(&self.features, &self.sets, on, zeta)
     }
 
     /// The EnvPG estimate of ∇ζ J_H(π_θk, ζ_k) from the on-policy episodes (eq. entropy_envpg),
@@ -671,42 +696,83 @@ impl Learner {
 
     /// [`Learner::zeta_gradient`] with an explicit estimator (for variance studies).
     pub fn zeta_gradient_with(&mut self, on: &[&Episode], estimator: ZetaEstimator) -> Vec<f64> {
-        let zeta = self.zeta.clone();
-        let d = zeta.len();
-        let (cols, taken) = self.on_policy_columns(on, &zeta);
-        let (mut logits, mut q) = (Vec::new(), Vec::new());
-        self.actor.eval(&cols, &mut logits);
-        self.critic.eval(&cols, &mut q);
-        let scale = 1.0 / on.len() as f64;
-        let mut d_critic = vec![0.0f32; cols.len()];
-        let mut d_actor = vec![0.0f32; cols.len()];
-        let mut pi = Vec::new();
-        for &(r0, m, kt) in &taken {
-            pi.resize(m, 0.0);
-            softmax(&logits[r0..r0 + m], &mut pi);
-            let qs: Vec<f64> = (0..m).map(|j| q[r0 + j] as f64).collect();
-            let v: f64 = (0..m).map(|j| pi[j] * qs[j]).sum();
-            for j in 0..m {
-                let ind = if j == kt { 1.0 } else { 0.0 };
-                let (dc, da) = match estimator {
-                    ZetaEstimator::Sampled => (ind, (ind - pi[j]) * qs[kt]),
-                    ZetaEstimator::Baseline => (ind, (ind - pi[j]) * (qs[kt] - v)),
-                    ZetaEstimator::Expected => (pi[j], pi[j] * (qs[j] - v)),
-                    ZetaEstimator::Corollary => (pi[j], 0.0),
-                };
-                d_critic[r0 + j] = dc as f32;
-                d_actor[r0 + j] = da as f32;
-            }
-        }
-        let mut g = vec![0.0; d];
-        let dense = cols.dense_dim();
-        for (net, dout) in [(&self.critic, &d_critic), (&self.actor, &d_actor)] {
-            let mut di = Vec::new();
-            net.backprop(&cols, dout, None, Some(&mut di));
-            for (c, &(s, a)) in cols.sa.iter().enumerate() {
-                self.features.chain(s as usize, a as usize, &zeta, &di[c * dense..(c + 1) * dense], scale, &mut g);
-            }
-        }
-        g
+        zeta_gradient(&mut self.actor, &mut self.critic, &self.features, &self.sets, &self.zeta, on, estimator)
     }
+}
+
+/// Columns of every valid action of every on-policy step at `zeta`, and per step
+/// `(first column, number of actions, index of the taken action)`.
+fn on_policy_columns(
+    features: &Features,
+    sets: &ActionSets,
+    on: &[&Episode],
+    zeta: &[f64],
+) -> (Columns, Vec<(usize, usize, usize)>) {
+    let mut cols = Columns::default();
+    let mut taken = Vec::new();
+    for ep in on {
+        for t in 0..ep.len() {
+            let s = ep.s[t] as usize;
+            let acts = sets.of(s);
+            let start = cols.len();
+            for &a in acts {
+                cols.push(features, s, a, zeta, 0);
+            }
+            let k = acts.iter().position(|&a| a == ep.a[t] as usize).expect("validated");
+            taken.push((start, acts.len(), k));
+        }
+    }
+    (cols, taken)
+}
+
+/// The EnvPG estimate with networks passed explicitly, so it can run beside the actor step.
+fn zeta_gradient(
+    actor: &mut Net,
+    critic: &mut Net,
+    features: &Features,
+    sets: &ActionSets,
+    zeta: &[f64],
+    on: &[&Episode],
+    estimator: ZetaEstimator,
+) -> Vec<f64> {
+    let d = zeta.len();
+    let (cols, taken) = on_policy_columns(features, sets, on, zeta);
+    let (mut logits, mut q) = (Vec::new(), Vec::new());
+    actor.eval(&cols, &mut logits);
+    critic.eval(&cols, &mut q);
+    let scale = 1.0 / on.len() as f64;
+    let mut d_critic = vec![0.0f32; cols.len()];
+    let mut d_actor = vec![0.0f32; cols.len()];
+    let mut pi = Vec::new();
+    for &(r0, m, kt) in &taken {
+        pi.resize(m, 0.0);
+        softmax(&logits[r0..r0 + m], &mut pi);
+        let qs: Vec<f64> = (0..m).map(|j| q[r0 + j] as f64).collect();
+        let v: f64 = (0..m).map(|j| pi[j] * qs[j]).sum();
+        for j in 0..m {
+            let ind = if j == kt { 1.0 } else { 0.0 };
+            let (dc, da) = match estimator {
+                ZetaEstimator::Sampled => (ind, (ind - pi[j]) * qs[kt]),
+                ZetaEstimator::Baseline => (ind, (ind - pi[j]) * (qs[kt] - v)),
+                ZetaEstimator::Expected => (pi[j], pi[j] * (qs[j] - v)),
+                ZetaEstimator::Corollary => (pi[j], 0.0),
+            };
+            d_critic[r0 + j] = dc as f32;
+            d_actor[r0 + j] = da as f32;
+        }
+    }
+    let mut g = vec![0.0; d];
+    let dense = cols.dense_dim();
+    for (net, dout) in [(&*critic, &d_critic), (&*actor, &d_actor)] {
+        // The corollary estimator has no actor term.
+        if dout.iter().all(|&x| x == 0.0) {
+            continue;
+        }
+        let mut di = Vec::new();
+        net.backprop(&cols, dout, None, Some(&mut di));
+        for (c, &(s, a)) in cols.sa.iter().enumerate() {
+            features.chain(s as usize, a as usize, zeta, &di[c * dense..(c + 1) * dense], scale, &mut g);
+        }
+    }
+    g
 }

@@ -6,15 +6,17 @@
 //! evaluated, or in which order — every path (in-process, worker processes, the learner)
 //! produces bitwise the same probabilities from the same weights.
 
+use std::borrow::Cow;
+
 use envpg_nn::Mlp;
 
 use crate::features::Features;
-use crate::nets::{ActionSets, Columns, Net, softmax};
+use crate::nets::{ActionSets, Columns, softmax};
 
 /// π over the valid actions of every state at one (θ, ζ), filled on demand.
 #[derive(Debug, Clone)]
-pub struct PolicyTable {
-    net: Net,
+pub struct PolicyTable<'a> {
+    actor: Cow<'a, Mlp<f32>>,
     features: Features,
     sets: ActionSets,
     zeta: Vec<f64>,
@@ -24,11 +26,21 @@ pub struct PolicyTable {
     logits: Vec<f32>,
 }
 
-impl PolicyTable {
-    /// The table of actor `actor` at design `zeta` (features centred there).
-    pub fn new(actor: &Mlp<f32>, features: &Features, sets: &ActionSets, zeta: &[f64]) -> Self {
+impl<'a> PolicyTable<'a> {
+    /// The table of actor `actor` at design `zeta` (features centred there), borrowing the
+    /// actor.
+    pub fn new(actor: &'a Mlp<f32>, features: &Features, sets: &ActionSets, zeta: &[f64]) -> Self {
+        Self::with(Cow::Borrowed(actor), features, sets, zeta)
+    }
+
+    /// The same with its own copy of the actor.
+    pub fn owned(actor: &Mlp<f32>, features: &Features, sets: &ActionSets, zeta: &[f64]) -> PolicyTable<'static> {
+        PolicyTable::with(Cow::Owned(actor.clone()), features, sets, zeta)
+    }
+
+    fn with(actor: Cow<'a, Mlp<f32>>, features: &Features, sets: &ActionSets, zeta: &[f64]) -> Self {
         Self {
-            net: Net::from_mlp(actor.clone()),
+            actor,
             features: features.centered(zeta),
             sets: sets.clone(),
             zeta: zeta.to_vec(),
@@ -47,7 +59,9 @@ impl PolicyTable {
             for &a in self.sets.of(s) {
                 self.cols.push(&self.features, s, a, &self.zeta, 0);
             }
-            self.net.values(&self.cols, &mut self.logits);
+            self.logits.clear();
+            self.logits.resize(self.cols.len(), 0.0);
+            self.actor.eval(&self.cols.inputs(), &mut self.logits);
             if !r.is_empty() {
                 softmax(&self.logits, &mut self.probs[r.clone()]);
             }

@@ -188,8 +188,8 @@ impl Recorder {
     /// The result file of the finished run: final ζ, greedy policy with its exact J, the soft
     /// policy with its exact J_H at the final α.
     pub fn finish(&self, net: &UavNetwork, learner: &Learner, method: &str, details: serde_json::Value) -> ResultFile {
-        let mut table = learner.policy_table();
-        let zeta = learner.zeta().to_vec();
+        let zeta = learner.reported_zeta();
+        let mut table = PolicyTable::new(learner.actor(), learner.features(), learner.action_sets(), &zeta);
         let snap = Snapshot::build(net, &zeta);
         let greedy = table.greedy();
         let (j, j_error) = match evaluate(&snap, &greedy, 0.0) {

@@ -95,6 +95,9 @@ pub struct TrainArgs {
     /// Clip the ζ-gradient estimate's norm (0: off).
     #[arg(long)]
     pub zeta_clip: Option<f64>,
+    /// Report the average of ζ_k over this final fraction of the iterations (0: the last ζ).
+    #[arg(long)]
+    pub zeta_average: Option<f64>,
     /// ζ-gradient estimator: `sampled` (the paper's), `baseline`, `expected`, `corollary`.
     #[arg(long, value_enum)]
     pub zeta_estimator: Option<ZetaEstimatorArg>,
@@ -200,7 +203,7 @@ impl TrainArgs {
         set!(iterations, episodes, explore_episodes, explore_eps, explore_start, episode_cap, sigma, hidden);
         set!(critic_lr, critic_steps, batch, polyak, actor_lr, actor_steps, warmup, zeta_lr, zeta_lr_decay);
         set!(zeta_clip, alpha0, alpha_decay, alpha_final, eval_every, relocate_every, relocate_below);
-        set!(loop_tolerance, alpha_backoff);
+        set!(loop_tolerance, alpha_backoff, zeta_average);
         if let Some(v) = self.zeta_input {
             c.zeta_input = match v {
                 ZetaInputArg::None => ZetaInput::None,

@@ -29,6 +29,7 @@ pub fn run(
         checkpoint,
         resume,
         stall_timeout: Duration::from_secs(60),
+        collect_only: false,
     };
     std::thread::scope(|scope| {
         for i in 0..workers {

@@ -7,6 +7,7 @@
 //! Exit codes: 0 success, 1 the run failed, 2 bad input, 130 interrupted.
 
 mod args;
+mod bench;
 mod in_process;
 mod roles;
 mod run_dir;
@@ -68,6 +69,19 @@ struct LaunchArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Measure rollout and transport throughput (raw loop, in-process, 1..N worker processes)
+    /// and weight-broadcast latency instead of training; see also --bench-workers.
+    #[arg(long)]
+    bench: bool,
+    /// Worker-process counts measured by --bench.
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
+    bench_workers: Vec<usize>,
+    /// Rounds of every --bench measurement (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    bench_repeats: usize,
+    /// Also write the --bench report as JSON here.
+    #[arg(long)]
+    bench_out: Option<PathBuf>,
 }
 
 #[derive(Debug, Subcommand)]
@@ -170,6 +184,19 @@ fn message(alpha: f64, j_h: f64, j: Option<f64>, tps: f64) -> String {
 }
 
 fn run(train: args::TrainArgs, launch: LaunchArgs) -> Result<()> {
+    if launch.bench {
+        let spec = train.spec().map_err(|e| InputError(format!("{e:#}")))?;
+        let dir = std::env::temp_dir().join(format!("envpg-bench-{}", run_dir::new_run_id()));
+        std::fs::create_dir_all(&dir)?;
+        let report = bench::run(&spec, launch.emulator_cost_us, &launch.bench_workers, launch.bench_repeats, &dir);
+        let _ = std::fs::remove_dir_all(&dir);
+        let report = report?;
+        bench::print(&report);
+        if let Some(p) = &launch.bench_out {
+            envpg_core::io::write_atomic(p, serde_json::to_string_pretty(&report)?.as_bytes())?;
+        }
+        return Ok(());
+    }
     let (dir, run, resume) = match &launch.resume {
         Some(dir) => {
             let run = RunFile::load(dir).map_err(|e| InputError(format!("--resume {}: {e:#}", dir.display())))?;

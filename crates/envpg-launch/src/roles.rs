@@ -37,6 +37,7 @@ pub fn learner(dir: &Path, resume: bool) -> Result<()> {
             .then(|| CheckpointPolicy { path: cp_path.clone(), every: run.checkpoint_every }),
         resume: resume_from,
         stall_timeout: Duration::from_secs(60),
+        collect_only: false,
     };
     let (result, stats) = run_learner::<ipc::Service>(&cfg, |p| {
         println!("{}", progress_line(p));

@@ -55,6 +55,9 @@ pub struct LearnerConfig {
     pub resume: Option<Checkpoint>,
     /// Stop (with an error) if no episode arrives for this long while workers are needed.
     pub stall_timeout: Duration,
+    /// Benchmark mode: collect every iteration's episodes but never update (weights and ζ
+    /// stay at their initial values), to measure rollouts and transport alone.
+    pub collect_only: bool,
 }
 
 /// Counters of the link, reported in the result file.
@@ -62,6 +65,8 @@ pub struct LearnerConfig {
 pub struct LinkStats {
     /// Episode messages accepted.
     pub episodes: u64,
+    /// Transitions in the accepted episodes.
+    pub transitions: u64,
     /// Duplicates (an episode already received) dropped.
     pub duplicates: u64,
     /// Messages for another iteration dropped.
@@ -189,8 +194,8 @@ where
     let mut stats = LinkStats::default();
     let mut workers = Assignments::new(cfg.worker_timeout);
     let mut last_refusal: Option<(u32, u32, Instant)> = None;
-    while (learner.k() as usize) < spec.config.iterations {
-        let k = learner.k();
+    let mut k = learner.k();
+    while (k as usize) < spec.config.iterations {
         let zeta_k = learner.zeta().to_vec();
         end.publish_weights(k, learner.alpha(), &zeta_k, learner.actor().params())?;
         let mut done: BTreeMap<EpisodeId, Episode> = BTreeMap::new();
@@ -255,6 +260,7 @@ where
                 match episode_from(h, recs, d, cap) {
                     Ok(ep) => {
                         workers.completed(&h.episode);
+                        stats.transitions += ep.len() as u64;
                         slot.insert(ep);
                         stats.episodes += 1;
                         last_arrival = Instant::now();
@@ -288,6 +294,10 @@ where
                 });
             }
         }
+        if cfg.collect_only {
+            k += 1;
+            continue;
+        }
         let mut table = learner.policy_table();
         let episodes: Vec<Episode> = done.into_values().collect();
         let st = learner.update(&Batch { k, episodes }).map_err(TrainError::from)?;
@@ -301,6 +311,7 @@ where
             let _ = end.announce(d, true);
             return Err(LearnerError::Stopped(k));
         }
+        k = learner.k();
     }
     end.announce(d, true)?;
     let details = serde_json::json!({ "mode": "workers", "link": stats });

@@ -562,16 +562,25 @@ impl<S: Service> WorkerEnd<S> {
 
     /// The newest weights message, if one arrived since the last call.
     pub fn latest_weights(&self) -> Result<Option<(WeightsHeader, Vec<f32>)>, TransportError> {
+        let mut out = None;
+        self.with_latest_weights(|h, p| out = Some((*h, p.to_vec())))?;
+        Ok(out)
+    }
+
+    /// Calls `f` with the newest weights message, read in place from shared memory, if one
+    /// arrived since the last call; returns whether it did.
+    pub fn with_latest_weights(&self, f: impl FnOnce(&WeightsHeader, &[f32])) -> Result<bool, TransportError> {
         let mut latest = None;
         loop {
             match self.weights.receive() {
-                Ok(Some(s)) => latest = Some((*s.user_header(), s.payload().to_vec())),
-                Ok(None) => return Ok(latest),
+                Ok(Some(s)) => latest = Some(s),
+                Ok(None) => break,
                 Err(e) => {
                     return Err(TransportError::Receive { service: self.names.weights(), reason: format!("{e:?}") });
                 }
             }
         }
+        Ok(latest.map(|s| f(s.user_header(), s.payload())).is_some())
     }
 
     /// Every task message that arrived since the last call (for any worker; filter by id).

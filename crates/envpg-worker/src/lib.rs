@@ -187,7 +187,8 @@ where
     let _wake = waitset.attach_notification(end.listener()).map_err(|e| WorkerError::Wait(format!("{e:?}")))?;
     let _tick = waitset.attach_interval(cfg.heartbeat).map_err(|e| WorkerError::Wait(format!("{e:?}")))?;
 
-    let mut weights: Option<(envpg_protocol::WeightsHeader, Vec<f32>)> = None;
+    // The header of the weights now in `ro.actor`.
+    let mut weights: Option<envpg_protocol::WeightsHeader> = None;
     let mut tasks: BTreeMap<u64, Vec<EpisodeId>> = BTreeMap::new();
     let mut seq = 0u64;
     let mut last_beat = Instant::now();
@@ -205,24 +206,31 @@ where
             let _ = end.say(hello_kind::LEAVE, cfg.worker_id, cfg.incarnation);
             return Ok(WorkerExit::Finished);
         }
-        if let Some(w) = end.latest_weights()?
-            && weights.as_ref().is_none_or(|(h, _)| w.0.k >= h.k)
-        {
-            if w.1.len() != ro.actor.n_params() {
-                return Err(WorkerError::Weights { k: w.0.k, got: w.1.len(), expected: ro.actor.n_params() });
+        // Weights are copied once, from shared memory straight into the actor.
+        let mut bad = None;
+        end.with_latest_weights(|h, params| {
+            if weights.is_some_and(|w| h.k < w.k) {
+                return;
             }
-            weights = Some(w);
+            if params.len() != ro.actor.n_params() {
+                bad = Some(WorkerError::Weights { k: h.k, got: params.len(), expected: ro.actor.n_params() });
+                return;
+            }
+            ro.actor.set_params(params);
+            weights = Some(*h);
+        })?;
+        if let Some(e) = bad {
+            return Err(e);
         }
         for (h, ids) in end.take_tasks()? {
             if h.worker_id == cfg.worker_id && h.incarnation == cfg.incarnation && h.run_id == run_id {
                 tasks.entry(h.k).or_default().extend(ids);
             }
         }
-        if let Some((h, params)) = &weights {
+        if let Some(h) = &weights {
             // Tasks for older iterations are stale; newer ones wait for their weights.
             tasks.retain(|&k, _| k >= h.k);
             if let Some(ids) = tasks.remove(&h.k) {
-                ro.actor.set_params(params);
                 let zeta = &h.zeta[..h.zeta_dim as usize];
                 let mut table = PolicyTable::new(&ro.actor, &ro.features, &ro.sets, zeta);
                 for id in &ids {

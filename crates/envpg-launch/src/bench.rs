@@ -1,0 +1,293 @@
+//! `envpg-launch --bench`: rollout and transport throughput, side by side in one run.
+//!
+//! Every measurement moves the same episodes (collect-only: the learner gathers each
+//! iteration's episodes but never updates, so the policy and ζ stay fixed):
+//!
+//! 1. `raw`: emulator + actor in one thread, no transport — the limit of one core;
+//! 2. `in-process`: learner and one worker thread over iceoryx2's process-local service;
+//! 3. `ipc` with 1, 2, … worker processes over shared memory;
+//!
+//! then the latency of broadcasting the actor's weights to a subscriber blocked in a WaitSet.
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use envpg_ac::nets::ActionSets;
+use envpg_ac::rollout::run_iteration;
+use envpg_ac::trainer::RunSpec;
+use envpg_core::{Streams, UavNetwork};
+use envpg_learner::{LearnerConfig, run_learner};
+use envpg_protocol::{Checkpoint, PROTOCOL_VERSION};
+use envpg_transport::{LearnerEnd, LinkSizes, WorkerEnd, ipc, local};
+use envpg_worker::{CostlyEnv, WorkerConfig, run_worker};
+use iceoryx2::prelude::*;
+use serde::Serialize;
+
+use crate::run_dir::{RunFile, new_run_id};
+
+/// One throughput measurement.
+#[derive(Debug, Serialize)]
+pub struct Throughput {
+    /// `raw`, `in-process` or `ipc`.
+    pub mode: String,
+    /// Worker threads or processes.
+    pub workers: usize,
+    /// Transitions moved.
+    pub transitions: u64,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+    /// Transitions per second.
+    pub per_second: f64,
+}
+
+/// The whole benchmark.
+#[derive(Debug, Serialize)]
+pub struct Report {
+    /// Extra compute per step (µs).
+    pub emulator_cost_us: u64,
+    /// Iterations per measurement.
+    pub iterations: usize,
+    /// Rounds per mode (the median is reported).
+    pub repeats: usize,
+    /// Episodes per iteration.
+    pub episodes_per_iteration: usize,
+    /// Measurements.
+    pub throughput: Vec<Throughput>,
+    /// Actor parameters per broadcast.
+    pub broadcast_floats: usize,
+    /// Broadcast latency percentiles (µs): p50, p90, p99.
+    pub broadcast_latency_us: [f64; 3],
+}
+
+fn collect_cfg(run_id: &str, spec: &RunSpec, workers: usize) -> LearnerConfig {
+    LearnerConfig {
+        run_id: run_id.to_owned(),
+        spec: spec.clone(),
+        max_workers: workers + 2,
+        worker_timeout: Duration::from_secs(5),
+        checkpoint: None,
+        resume: None::<Checkpoint>,
+        stall_timeout: Duration::from_secs(60),
+        collect_only: true,
+    }
+}
+
+fn raw(spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
+    let (net, zeta0, learner) = spec.start()?;
+    let env = CostlyEnv { inner: net, cost: Duration::from_micros(cost_us) };
+    let sets = ActionSets::new(&env.inner);
+    let streams = Streams::new(spec.seed);
+    let start = Instant::now();
+    let mut transitions = 0u64;
+    for k in 0..spec.config.iterations as u64 {
+        let mut table = learner.policy_table();
+        for ep in run_iteration(&env, &sets, &mut table, &zeta0, &spec.config, &streams, k) {
+            transitions += ep.len() as u64;
+        }
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    Ok(Throughput { mode: "raw".into(), workers: 0, transitions, seconds, per_second: transitions as f64 / seconds })
+}
+
+fn in_process(spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
+    let run_id = new_run_id();
+    let lcfg = collect_cfg(&run_id, spec, 1);
+    let start = Instant::now();
+    let stats = std::thread::scope(|scope| {
+        let wcfg = worker_cfg(&run_id, spec, 0, cost_us);
+        scope.spawn(move || run_worker::<local::Service>(&wcfg));
+        run_learner::<local::Service>(&lcfg, |_| true).map(|(_, s)| s)
+    })?;
+    let seconds = start.elapsed().as_secs_f64();
+    Ok(Throughput {
+        mode: "in-process".into(),
+        workers: 1,
+        transitions: stats.transitions,
+        seconds,
+        per_second: stats.transitions as f64 / seconds,
+    })
+}
+
+fn worker_cfg(run_id: &str, spec: &RunSpec, id: u32, cost_us: u64) -> WorkerConfig {
+    WorkerConfig {
+        run_id: run_id.to_owned(),
+        spec: spec.clone(),
+        worker_id: id,
+        incarnation: 1,
+        protocol: PROTOCOL_VERSION,
+        join_timeout: Duration::from_secs(30),
+        heartbeat: Duration::from_millis(200),
+        emulator_cost_us: cost_us,
+    }
+}
+
+fn ipc_workers(spec: &RunSpec, cost_us: u64, workers: usize, dir: &Path) -> Result<Throughput> {
+    let run_id = new_run_id();
+    let run = RunFile {
+        run_id: run_id.clone(),
+        spec: spec.clone(),
+        out: dir.join("unused.json"),
+        workers,
+        checkpoint_every: 0,
+        emulator_cost_us: cost_us,
+        worker_timeout_ms: 5000,
+    };
+    run.save(dir)?;
+    let exe = std::env::current_exe()?;
+    let mut children: Vec<std::process::Child> = (0..workers)
+        .map(|i| {
+            std::process::Command::new(&exe)
+                .args(["worker", "--run-dir", &dir.display().to_string(), "--worker-id", &i.to_string()])
+                .spawn()
+        })
+        .collect::<std::io::Result<_>>()?;
+    let start = Instant::now();
+    let res = run_learner::<ipc::Service>(&collect_cfg(&run_id, spec, workers), |_| true);
+    let seconds = start.elapsed().as_secs_f64();
+    for c in &mut children {
+        let _ = c.wait();
+    }
+    let stats = res?.1;
+    Ok(Throughput {
+        mode: "ipc".into(),
+        workers,
+        transitions: stats.transitions,
+        seconds,
+        per_second: stats.transitions as f64 / seconds,
+    })
+}
+
+/// Latency of one weights broadcast of `n` floats from publish to a WaitSet wake-up and
+/// receipt in another thread (shared memory), over `rounds` rounds.
+fn broadcast_latency(n: usize, rounds: usize) -> Result<[f64; 3]> {
+    let run_id = new_run_id();
+    let sizes = LinkSizes { max_workers: 1, n_params: n, episode_cap: 1, episodes_per_iteration: 1 };
+    let learner = LearnerEnd::<ipc::Service>::create(&run_id, sizes)?;
+    learner.announce(1, false)?;
+    let params = vec![0.5f32; n];
+    let (tx, rx) = std::sync::mpsc::channel::<(u64, Instant)>();
+    let mut lat = Vec::with_capacity(rounds);
+    std::thread::scope(|scope| -> Result<()> {
+        let rid = run_id.clone();
+        let h = scope.spawn(move || -> Result<()> {
+            let w = WorkerEnd::<ipc::Service>::open(&rid, 0, PROTOCOL_VERSION, Duration::from_secs(10))?;
+            w.say(envpg_protocol::hello_kind::JOIN, 0, 1)?;
+            let ws = WaitSetBuilder::new().create::<ipc::Service>().map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            let _g = ws.attach_notification(w.listener()).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            let mut seen = 0;
+            while seen < rounds {
+                ws.wait_and_process_once_with_timeout(|_| CallbackProgression::Continue, Duration::from_millis(100))
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                w.drain_wakeups();
+                if let Some((h, p)) = w.latest_weights()? {
+                    let _ = tx.send((h.k, Instant::now()));
+                    std::hint::black_box(p);
+                    seen += 1;
+                }
+            }
+            Ok(())
+        });
+        // Wait for the subscriber to join before timing anything.
+        let start = Instant::now();
+        while learner.receive_hellos()?.is_empty() {
+            learner.refresh();
+            anyhow::ensure!(start.elapsed() < Duration::from_secs(10), "latency probe did not join");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        for k in 0..rounds as u64 {
+            let sent = Instant::now();
+            learner.publish_weights(k, 0.0, &[0.0], &params)?;
+            learner.notify_workers()?;
+            let (got_k, at) = rx.recv_timeout(Duration::from_secs(10))?;
+            anyhow::ensure!(got_k == k, "latency probe saw iteration {got_k}, expected {k}");
+            lat.push(at.duration_since(sent).as_secs_f64() * 1e6);
+        }
+        h.join().map_err(|_| anyhow::anyhow!("latency probe panicked"))??;
+        Ok(())
+    })?;
+    lat.sort_by(f64::total_cmp);
+    let q = |p: f64| lat[((lat.len() as f64 - 1.0) * p).round() as usize];
+    Ok([q(0.5), q(0.9), q(0.99)])
+}
+
+/// Runs every measurement of the benchmark `repeats` times, interleaved so that slow phases of a
+/// shared machine hit every mode alike, and keeps each mode's median.
+pub fn run(spec: &RunSpec, cost_us: u64, worker_counts: &[usize], repeats: usize, dir: &Path) -> Result<Report> {
+    let episodes = spec.config.episodes + spec.config.explore_episodes;
+    let mut rounds: Vec<Vec<Throughput>> = Vec::new();
+    for _ in 0..repeats.max(1) {
+        let mut round = vec![raw(spec, cost_us)?, in_process(spec, cost_us)?];
+        for &w in worker_counts {
+            round.push(ipc_workers(spec, cost_us, w, dir)?);
+        }
+        rounds.push(round);
+    }
+    let throughput = (0..rounds[0].len())
+        .map(|i| {
+            let mut all: Vec<&Throughput> = rounds.iter().map(|r| &r[i]).collect();
+            all.sort_by(|a, b| a.per_second.total_cmp(&b.per_second));
+            let m = all[all.len() / 2];
+            Throughput {
+                mode: m.mode.clone(),
+                workers: m.workers,
+                transitions: m.transitions,
+                seconds: m.seconds,
+                per_second: m.per_second,
+            }
+        })
+        .collect();
+    let n = {
+        let (_, _, l) = spec.start()?;
+        l.actor().n_params()
+    };
+    let _ = UavNetwork::new(spec.instance.clone(), spec.kappa, spec.eta)?;
+    Ok(Report {
+        emulator_cost_us: cost_us,
+        iterations: spec.config.iterations,
+        repeats: repeats.max(1),
+        episodes_per_iteration: episodes,
+        throughput,
+        broadcast_floats: n,
+        broadcast_latency_us: broadcast_latency(n, 300)?,
+    })
+}
+
+/// Prints the report as a table with ratios.
+pub fn print(r: &Report) {
+    println!(
+        "throughput ({} iterations × {} episodes, emulator cost {} µs/step, collect-only, median of {} rounds)",
+        r.iterations, r.episodes_per_iteration, r.emulator_cost_us, r.repeats
+    );
+    let raw = r.throughput.iter().find(|t| t.mode == "raw").map_or(1.0, |t| t.per_second);
+    let inproc = r.throughput.iter().find(|t| t.mode == "in-process").map_or(1.0, |t| t.per_second);
+    let one = r.throughput.iter().find(|t| t.mode == "ipc" && t.workers == 1).map_or(1.0, |t| t.per_second);
+    println!(
+        "{:<11} {:>7} {:>14} {:>8} {:>12} {:>11}",
+        "mode", "workers", "transitions/s", "vs raw", "vs in-proc", "scaling"
+    );
+    for t in &r.throughput {
+        let scaling = if t.mode == "ipc" {
+            format!("{:.0}%", 100.0 * t.per_second / (one * t.workers as f64))
+        } else {
+            "-".into()
+        };
+        println!(
+            "{:<11} {:>7} {:>14.0} {:>7.0}% {:>11.0}% {:>11}",
+            t.mode,
+            t.workers,
+            t.per_second,
+            100.0 * t.per_second / raw,
+            100.0 * t.per_second / inproc,
+            scaling
+        );
+    }
+    println!(
+        "weights broadcast ({} floats, {} KiB): p50 {:.0} µs, p90 {:.0} µs, p99 {:.0} µs",
+        r.broadcast_floats,
+        r.broadcast_floats * 4 / 1024,
+        r.broadcast_latency_us[0],
+        r.broadcast_latency_us[1],
+        r.broadcast_latency_us[2]
+    );
+}
