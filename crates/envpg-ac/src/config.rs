@@ -4,6 +4,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+/// The bundled preset file (`launch/presets.toml`), compiled in so every binary works from any
+/// directory.
+pub const BUNDLED_PRESETS: &str = include_str!("../../../launch/presets.toml");
+
 /// How the actor follows the critic.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -348,6 +352,34 @@ impl AcConfig {
         Self::from_preset_str(&text, path, name)
     }
 
+    /// Preset `name` of the bundled preset file.
+    pub fn bundled(name: &str) -> Result<Self, PresetError> {
+        Self::from_preset_str(BUNDLED_PRESETS, Path::new("<bundled presets.toml>"), name)
+    }
+
+    /// Sets one setting by name from its text, as a preset file would (`sigma` / `0.1`,
+    /// `hidden` / `[64, 64]`, `zeta_estimator` / `baseline`), and validates the result.
+    pub fn set(&self, key: &str, value: &str) -> Result<Self, ConfigError> {
+        let field = |reason: String| ConfigError { field: "set", reason };
+        let mut table = toml::Table::try_from(self).map_err(|e| field(e.to_string()))?;
+        if !table.contains_key(key) {
+            let mut known: Vec<_> = table.keys().cloned().collect();
+            known.sort();
+            return Err(field(format!("unknown setting {key:?} (settings: {})", known.join(", "))));
+        }
+        // A bare word is a string (`baseline`); anything else is read as a TOML value.
+        let parsed = toml::from_str::<toml::Table>(&format!("v = {value}"))
+            .ok()
+            .and_then(|mut t| t.remove("v"))
+            .unwrap_or_else(|| toml::Value::String(value.to_owned()));
+        table.insert(key.to_owned(), parsed);
+        let cfg: AcConfig = toml::Value::Table(table)
+            .try_into()
+            .map_err(|e: toml::de::Error| field(format!("{key} = {value}: {}", e.message())))?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
     /// As [`AcConfig::from_preset`], from text.
     pub fn from_preset_str(text: &str, path: &Path, name: &str) -> Result<Self, PresetError> {
         let mut table: toml::Table =
@@ -388,6 +420,27 @@ mod tests {
         assert!(e.to_string().contains("fast, other"), "{e}");
         let e = AcConfig::from_preset_str("[x]\nsigma = -1.0\n", Path::new("p.toml"), "x").unwrap_err();
         assert!(e.to_string().contains("sigma"), "{e}");
+    }
+
+    #[test]
+    fn settings_are_set_by_name_from_text() {
+        let c = AcConfig::default();
+        assert_eq!(c.set("sigma", "0.1").unwrap().sigma, 0.1);
+        assert_eq!(c.set("hidden", "[64, 32]").unwrap().hidden, [64, 32]);
+        assert_eq!(c.set("zeta_estimator", "baseline").unwrap().zeta_estimator, ZetaEstimator::Baseline);
+        assert_eq!(c.set("iterations", "7").unwrap().iterations, 7);
+        assert!(c.set("sigmaa", "1").unwrap_err().reason.contains("unknown setting \"sigmaa\""));
+        assert_eq!(c.set("sigma", "-1").unwrap_err().field, "sigma");
+        assert!(c.set("iterations", "many").is_err());
+        assert!(c.set("zeta_estimator", "best").is_err());
+    }
+
+    #[test]
+    fn bundled_presets_load() {
+        for name in ["uav", "paper", "smoke"] {
+            AcConfig::bundled(name).unwrap();
+        }
+        assert_eq!(AcConfig::bundled("uav").unwrap(), AcConfig::default());
     }
 
     #[test]

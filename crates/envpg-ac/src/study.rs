@@ -5,7 +5,7 @@
 
 use envpg_core::{Streams, UavNetwork};
 use envpg_model::{Snapshot, SoftSolution, corollary_gradient, evaluate, theorem_gradient};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::config::ZetaEstimator;
 use crate::exact::ActorPolicy;
@@ -14,7 +14,7 @@ use crate::rollout::run_iteration;
 use crate::trainer::{RunSpec, TrainError};
 
 /// Statistics of one estimator over independent batches.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct EstimatorStats {
     /// Which estimator.
     pub estimator: ZetaEstimator,
@@ -33,7 +33,7 @@ pub struct EstimatorStats {
 }
 
 /// The result of [`estimator_study`].
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Study {
     /// Iterations trained before freezing.
     pub trained: usize,

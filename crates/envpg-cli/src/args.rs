@@ -39,6 +39,8 @@ pub fn exit_code(result: Result<()>) -> ExitCode {
                     || c.is::<envpg_core::InstanceError>()
                     || c.is::<envpg_core::result::ResultError>()
                     || c.is::<envpg_core::UavParamError>()
+                    || c.is::<envpg_ac::config::PresetError>()
+                    || matches!(c.downcast_ref::<envpg_report::ReportError>(), Some(envpg_report::ReportError::Plan(_)))
             });
             if input { ExitCode::from(2) } else { ExitCode::from(1) }
         }

@@ -8,9 +8,6 @@ use envpg_ac::trainer::RunSpec;
 use envpg_ac::{AcConfig, ActorUpdate, CriticInit, Zeta0, ZetaEstimator, ZetaInput, ZetaOptimizer};
 use envpg_core::{Instance, ResultFile};
 
-/// The bundled preset file, compiled in so the binary works from any directory.
-pub const BUNDLED_PRESETS: &str = include_str!("../../../launch/presets.toml");
-
 /// What to train: problem, seed, preset and per-setting overrides.
 #[derive(Debug, Clone, Args)]
 pub struct TrainArgs {
@@ -191,11 +188,7 @@ impl TrainArgs {
         let instance = Instance::resolve(&self.instance)?;
         let mut c = match &self.presets {
             Some(p) => AcConfig::from_preset(p, &self.preset)?,
-            None => AcConfig::from_preset_str(
-                BUNDLED_PRESETS,
-                std::path::Path::new("<bundled presets.toml>"),
-                &self.preset,
-            )?,
+            None => AcConfig::bundled(&self.preset)?,
         };
         macro_rules! set {
             ($($f:ident),*) => { $( if let Some(v) = self.$f.clone() { c.$f = v; } )* };

@@ -1,0 +1,109 @@
+//! `envpg table`: the paper's Table I with its figures.
+
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+use anyhow::Result;
+use clap::Args;
+use envpg_report::{JobReport, TablePlan, run_table};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::args::{input_err, load_instance};
+use crate::experiment_args::{RunnerArgs, SettingsArgs, command_line, machine_line, parse_seeds};
+
+/// Options of `envpg table`.
+#[derive(Debug, Args)]
+pub struct TableArgs {
+    /// Instance: `uav271` (bundled) or a path to an instance JSON file.
+    #[arg(long, default_value = "uav271")]
+    instance: String,
+    /// κ columns.
+    #[arg(long, value_delimiter = ',', default_value = "1,0.95,0.9,0.85")]
+    kappas: Vec<f64>,
+    /// Seeds: `1..6` or a list.
+    #[arg(long, default_value = "1..6")]
+    seeds: String,
+    /// Concentration η of off-target moves.
+    #[arg(long, default_value_t = 100.0)]
+    eta: f64,
+    #[command(flatten)]
+    settings: SettingsArgs,
+    #[command(flatten)]
+    runner: RunnerArgs,
+    /// Restarts of the best-of-restarts oracle.
+    #[arg(long, default_value_t = 16)]
+    restarts: usize,
+    /// Seed of the best-of-restarts oracle.
+    #[arg(long, default_value_t = 1)]
+    oracle_seed: u64,
+    /// A seed "reaches the best basin" when its J is within this relative tolerance of the
+    /// best-of-restarts oracle.
+    #[arg(long, default_value_t = 0.01)]
+    basin_tol: f64,
+    /// Moving-average window of the per-iteration figures.
+    #[arg(long, default_value_t = 100)]
+    window: usize,
+    /// Output directory (re-running resumes: finished runs are kept).
+    #[arg(long, default_value = "results/table")]
+    out: PathBuf,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// Runs the table.
+pub fn run(a: TableArgs) -> Result<()> {
+    let config = a.settings.config()?;
+    let (runner, jobs) = a.runner.runner(&a.out)?;
+    let plan = TablePlan {
+        instance: load_instance(&a.instance)?,
+        eta: a.eta,
+        kappas: a.kappas.clone(),
+        seeds: parse_seeds(&a.seeds)?,
+        config,
+        restarts: a.restarts,
+        oracle_seed: a.oracle_seed,
+        basin_tol: a.basin_tol,
+        jobs,
+        window: a.window,
+        preamble: vec![command_line(), machine_line()],
+    };
+    if let Err(e) = plan.validate() {
+        return input_err(e.to_string());
+    }
+    let bar = bar(plan.jobs().len() as u64, a.quiet);
+    let bar_ref = Mutex::new(&bar);
+    let on_job = |r: &JobReport| {
+        let line = match (&r.outcome, r.skipped) {
+            (Ok(j), true) => format!("[{}/{}] {}: kept, J = {}", r.done, r.total, r.job, fmt_j(*j)),
+            (Ok(j), false) => format!("[{}/{}] {}: J = {} ({:.1} s)", r.done, r.total, r.job, fmt_j(*j), r.seconds),
+            (Err(e), _) => format!("[{}/{}] {}: FAILED: {e}", r.done, r.total, r.job),
+        };
+        let b = bar_ref.lock().unwrap();
+        b.println(line);
+        b.inc(1);
+    };
+    let summary = run_table(&plan, &a.out, runner.as_ref(), &on_job);
+    bar.finish_and_clear();
+    let summary = summary?;
+    print!("{}", summary.markdown());
+    println!("\nwrote {0}/table.md, {0}/table.csv, figures and runs/ in {0}", a.out.display());
+    Ok(())
+}
+
+fn fmt_j(j: Option<f64>) -> String {
+    j.map_or("n/a (improper policy)".into(), |j| format!("{j:.4}"))
+}
+
+/// A progress bar over jobs (hidden with --quiet or when stderr is not a terminal).
+pub fn bar(total: u64, quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let b = ProgressBar::new(total);
+    b.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} elapsed, ~{eta} left")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    b
+}
