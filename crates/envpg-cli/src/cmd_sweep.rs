@@ -47,7 +47,7 @@ pub struct SweepArgs {
     /// Output directory [default: results/sweep-PARAM].
     #[arg(long)]
     out: Option<PathBuf>,
-    /// No progress bar.
+    /// No progress bar (a line per finished run is still printed).
     #[arg(long)]
     quiet: bool,
 }
@@ -84,8 +84,7 @@ pub fn run(a: SweepArgs) -> Result<()> {
             Err(e) => format!("[{n}/{total}] {} = {value}, seed {seed}: FAILED: {e}", plan.param),
         };
         let b = bar_ref.lock().unwrap();
-        b.println(line);
-        b.inc(1);
+        crate::cmd_table::log_line(*b, line);
     };
     let rows = run_sweep(&plan, &out, runner.as_ref(), &on_run);
     bar.finish_and_clear();

@@ -46,7 +46,7 @@ pub struct TableArgs {
     /// Output directory (re-running resumes: finished runs are kept).
     #[arg(long, default_value = "results/table")]
     out: PathBuf,
-    /// No progress bar.
+    /// No progress bar (a line per finished run is still printed).
     #[arg(long)]
     quiet: bool,
 }
@@ -80,8 +80,7 @@ pub fn run(a: TableArgs) -> Result<()> {
             (Err(e), _) => format!("[{}/{}] {}: FAILED: {e}", r.done, r.total, r.job),
         };
         let b = bar_ref.lock().unwrap();
-        b.println(line);
-        b.inc(1);
+        log_line(*b, line);
     };
     let summary = run_table(&plan, &a.out, runner.as_ref(), &on_job);
     bar.finish_and_clear();
@@ -93,6 +92,17 @@ pub fn run(a: TableArgs) -> Result<()> {
 
 fn fmt_j(j: Option<f64>) -> String {
     j.map_or("n/a (improper policy)".into(), |j| format!("{j:.4}"))
+}
+
+/// Prints a line above the bar (or plainly when the bar is hidden, e.g. with --quiet or when
+/// stderr is not a terminal) and advances it.
+pub fn log_line(bar: &ProgressBar, line: String) {
+    if bar.is_hidden() {
+        println!("{line}");
+    } else {
+        bar.println(line);
+    }
+    bar.inc(1);
 }
 
 /// A progress bar over jobs (hidden with --quiet or when stderr is not a terminal).

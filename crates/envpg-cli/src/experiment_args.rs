@@ -122,7 +122,9 @@ impl Alg1Runner for Launcher {
         presets.insert("run".into(), toml::Value::try_from(&spec.config).map_err(|e| e.to_string())?);
         let preset_path = scratch.join("preset.toml");
         let instance_path = scratch.join("instance.json");
-        let write = |p: &Path, t: String| envpg_core::io::write_atomic(p, t.as_bytes()).map_err(|e| format!("{}: {e}", p.display()));
+        let write = |p: &Path, t: String| {
+            envpg_core::io::write_atomic(p, t.as_bytes()).map_err(|e| format!("{}: {e}", p.display()))
+        };
         write(&preset_path, toml::to_string(&presets).map_err(|e| e.to_string())?)?;
         write(&instance_path, spec.instance.to_json_pretty())?;
         let output = Command::new(&self.exe)
@@ -130,7 +132,14 @@ impl Alg1Runner for Launcher {
             .arg(self.workers.to_string())
             .arg("--instance")
             .arg(&instance_path)
-            .args(["--kappa", &spec.kappa.to_string(), "--eta", &spec.eta.to_string(), "--seed", &spec.seed.to_string()])
+            .args([
+                "--kappa",
+                &spec.kappa.to_string(),
+                "--eta",
+                &spec.eta.to_string(),
+                "--seed",
+                &spec.seed.to_string(),
+            ])
             .arg("--presets")
             .arg(&preset_path)
             .args(["--preset", "run", "--quiet", "--out"])
@@ -198,7 +207,9 @@ pub fn machine_line() -> String {
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|t| t.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_owned()))
+        .and_then(|t| {
+            t.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_owned())
+        })
         .unwrap_or_else(|| "unknown CPU".into());
     format!("Machine: {cores} cores ({cpu}), {} build.", if cfg!(debug_assertions) { "debug" } else { "release" })
 }

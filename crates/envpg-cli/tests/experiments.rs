@@ -166,7 +166,8 @@ fn table_writes_parsable_reports_and_resumes_without_redoing_runs() {
     let md = read_markdown_table(&out_dir.join("table.md"));
     assert_eq!(md[0][1..], ["κ = 1", "κ = 0.9", "overall"]);
     let names: Vec<&str> = md.iter().map(|r| r[0].as_str()).collect();
-    for want in ["Algorithm 1", "Oracle, same ζ₀", "Oracle, best of 2 restarts", "Δ Algorithm 1 vs same-ζ₀ oracle"] {
+    for want in ["Algorithm 1", "Oracle, same ζ₀", "Oracle, best of 2 restarts", "Δ Algorithm 1 vs same-ζ₀ oracle"]
+    {
         assert!(names.contains(&want), "{names:?}");
     }
     let alg1 = &md[names.iter().position(|n| *n == "Algorithm 1").unwrap()];

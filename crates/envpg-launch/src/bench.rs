@@ -132,6 +132,8 @@ fn ipc_workers(spec: &RunSpec, cost_us: u64, workers: usize, dir: &Path) -> Resu
         checkpoint_every: 0,
         emulator_cost_us: cost_us,
         worker_timeout_ms: 5000,
+        stall_timeout_s: 60,
+        listen: None,
     };
     run.save(dir)?;
     let exe = std::env::current_exe()?;

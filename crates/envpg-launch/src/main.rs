@@ -2,13 +2,16 @@
 //!
 //! By default it supervises a learner process and `--workers N` rollout-worker processes linked
 //! by iceoryx2 shared memory (the same executable in the `learner` / `worker` roles);
-//! `--in-process` runs the same learner and worker code as threads of one process.
+//! `--in-process` runs the same learner and worker code as threads of one process. With the
+//! `multi-host` feature, `--listen ENDPOINT` also lets worker hosts join over zenoh
+//! (`envpg-launch worker --connect ENDPOINT --workers N` on each of them).
 //!
 //! Exit codes: 0 success, 1 the run failed, 2 bad input, 130 interrupted.
 
 mod args;
 mod bench;
 mod in_process;
+mod multi_host;
 mod roles;
 mod run_dir;
 mod supervise;
@@ -38,9 +41,18 @@ struct Cli {
 /// How the run is executed.
 #[derive(Debug, clap::Args)]
 struct LaunchArgs {
-    /// Rollout-worker processes (threads with --in-process).
+    /// Rollout-worker processes on this host (threads with --in-process); 0 is allowed with
+    /// --listen, when every worker is remote.
     #[arg(long, default_value_t = 2)]
     workers: usize,
+    /// Also accept rollout workers from other hosts on this zenoh endpoint, e.g.
+    /// `tcp/0.0.0.0:7447` (needs the `multi-host` build feature).
+    #[arg(long, value_name = "ENDPOINT")]
+    listen: Option<String>,
+    /// The learner gives up when no episode arrives for this long while work is pending
+    /// (seconds); raise it when remote workers may be cut off for a while.
+    #[arg(long, default_value_t = 60)]
+    stall_timeout_s: u64,
     /// Run learner and workers as threads of this process (no shared memory needed).
     #[arg(long)]
     in_process: bool,
@@ -96,27 +108,41 @@ enum Role {
         #[arg(long)]
         resume: bool,
     },
-    /// (internal) A rollout-worker process of a run.
-    #[command(hide = true)]
+    /// Rollout workers on this host for a learner on another one: `worker --connect
+    /// tcp/HOST:PORT --workers N` (needs the `multi-host` build feature). Without --connect this
+    /// is the internal worker role of a local run.
     Worker {
-        /// Run directory.
-        #[arg(long)]
-        run_dir: PathBuf,
-        /// Worker slot.
-        #[arg(long)]
-        worker_id: u32,
-        /// Incarnation of the slot.
-        #[arg(long, default_value_t = 1)]
+        /// The learner host's endpoint (as given to its `--listen`).
+        #[arg(long, value_name = "ENDPOINT", conflicts_with_all = ["run_dir", "worker_id"])]
+        connect: Option<String>,
+        /// Worker processes to run on this host (with --connect).
+        #[arg(long, default_value_t = 2)]
+        workers: usize,
+        /// Give up if no learner answers for this long (seconds, with --connect).
+        #[arg(long, default_value_t = 60)]
+        join_timeout_s: u64,
+        /// Leave when the learner host has been unreachable for this long (seconds, with
+        /// --connect; a live learner host answers every second even between iterations).
+        #[arg(long, default_value_t = 120)]
+        link_timeout_s: u64,
+        /// (internal) Run directory.
+        #[arg(long, hide = true)]
+        run_dir: Option<PathBuf>,
+        /// (internal) Worker slot.
+        #[arg(long, hide = true)]
+        worker_id: Option<u32>,
+        /// (internal) Incarnation of the slot.
+        #[arg(long, hide = true, default_value_t = 1)]
         incarnation: u64,
-        /// Protocol version to announce.
-        #[arg(long, default_value_t = envpg_protocol::PROTOCOL_VERSION)]
+        /// (internal) Protocol version to announce.
+        #[arg(long, hide = true, default_value_t = envpg_protocol::PROTOCOL_VERSION)]
         protocol_version: u32,
     },
 }
 
 /// Marks an error as bad input (exit code 2).
 #[derive(Debug)]
-struct InputError(String);
+pub(crate) struct InputError(pub(crate) String);
 
 impl std::fmt::Display for InputError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -134,8 +160,30 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.role {
         Some(Role::Learner { run_dir, resume }) => roles::learner(&run_dir, resume),
-        Some(Role::Worker { run_dir, worker_id, incarnation, protocol_version }) => {
-            roles::worker(&run_dir, worker_id, incarnation, protocol_version).map(|_| ())
+        Some(Role::Worker {
+            connect: Some(endpoint),
+            workers,
+            join_timeout_s,
+            link_timeout_s,
+            protocol_version,
+            ..
+        }) => multi_host::worker_host(&multi_host::WorkerHost {
+            endpoint,
+            workers,
+            join_timeout: Duration::from_secs(join_timeout_s),
+            link_timeout: Duration::from_secs(link_timeout_s),
+            protocol: protocol_version,
+        }),
+        Some(Role::Worker {
+            run_dir: Some(run_dir),
+            worker_id: Some(worker_id),
+            incarnation,
+            protocol_version,
+            ..
+        }) => roles::worker(&run_dir, worker_id, incarnation, protocol_version).map(|_| ()),
+        Some(Role::Worker { .. }) => {
+            Err(InputError("`envpg-launch worker` needs --connect ENDPOINT (the learner host's --listen)".into())
+                .into())
         }
         None => run(cli.train, cli.launch),
     };
@@ -145,6 +193,7 @@ fn main() -> ExitCode {
             eprintln!("error: {e:#}");
             if e.chain().any(|c| {
                 c.is::<supervise::Interrupted>()
+                    || c.is::<multi_host::HostInterrupted>()
                     || matches!(
                         c.downcast_ref::<envpg_learner::LearnerError>(),
                         Some(envpg_learner::LearnerError::Terminated(_))
@@ -159,6 +208,8 @@ fn main() -> ExitCode {
                     || c.is::<envpg_core::UavParamError>()
                     || c.is::<envpg_ac::config::ConfigError>()
                     || c.is::<envpg_ac::config::PresetError>()
+                    || c.is::<multi_host::NotBuilt>()
+                    || multi_host::is_input_error(c)
             });
             ExitCode::from(if input { 2 } else { 1 })
         }
@@ -205,8 +256,17 @@ fn run(train: args::TrainArgs, launch: LaunchArgs) -> Result<()> {
         None => {
             // Everything that goes wrong while turning arguments into a run is the user's input.
             let spec = train.spec().map_err(|e| InputError(format!("{e:#}")))?;
-            if launch.workers == 0 && !launch.in_process {
-                return Err(InputError("--workers must be at least 1".into()).into());
+            if launch.workers == 0 && (launch.in_process || launch.listen.is_none()) {
+                return Err(InputError("--workers must be at least 1 (0 only with --listen)".into()).into());
+            }
+            if let Some(endpoint) = &launch.listen {
+                if launch.in_process {
+                    return Err(InputError("--listen needs the distributed mode, not --in-process".into()).into());
+                }
+                multi_host::check_listen(endpoint)?;
+            }
+            if launch.stall_timeout_s == 0 {
+                return Err(InputError("--stall-timeout-s must be at least 1".into()).into());
             }
             let run_id = run_dir::new_run_id();
             let dir = launch.run_dir.clone().unwrap_or_else(|| std::env::temp_dir().join(format!("envpg-{run_id}")));
@@ -221,6 +281,8 @@ fn run(train: args::TrainArgs, launch: LaunchArgs) -> Result<()> {
                 checkpoint_every: launch.checkpoint_every,
                 emulator_cost_us: launch.emulator_cost_us,
                 worker_timeout_ms: launch.worker_timeout_ms,
+                stall_timeout_s: launch.stall_timeout_s,
+                listen: launch.listen.clone(),
             };
             run.save(&dir)?;
             (dir, run, false)
@@ -260,6 +322,16 @@ fn run(train: args::TrainArgs, launch: LaunchArgs) -> Result<()> {
                 ));
             }
         })?;
+        if let Some(bridge) = outcome.bridge {
+            // The learner wrote the result; add what crossed hosts, for the record.
+            let mut result = envpg_core::ResultFile::load(&run.out)
+                .with_context(|| format!("reading {} to add the bridge's traffic", run.out.display()))?;
+            let details = result.details.get_or_insert_with(|| serde_json::json!({}));
+            if let Some(d) = details.as_object_mut() {
+                d.insert("bridge".into(), bridge);
+            }
+            result.save(&run.out).with_context(|| format!("writing {}", run.out.display()))?;
+        }
         outcome.done.as_ref().and_then(|d| d.get("J")).and_then(|j| j.as_f64())
     };
     bar.finish_and_clear();

@@ -31,12 +31,14 @@ pub fn learner(dir: &Path, resume: bool) -> Result<()> {
     let cfg = LearnerConfig {
         run_id: run.run_id.clone(),
         spec: run.spec.clone(),
-        max_workers: run.workers.max(1) + 2,
+        // Remote hosts' workers all come through one bridge port, but the learner tracks (and
+        // queues tasks for) each of them.
+        max_workers: run.workers.max(1) + 2 + if run.listen.is_some() { 64 } else { 0 },
         worker_timeout: Duration::from_millis(run.worker_timeout_ms),
         checkpoint: (run.checkpoint_every > 0)
             .then(|| CheckpointPolicy { path: cp_path.clone(), every: run.checkpoint_every }),
         resume: resume_from,
-        stall_timeout: Duration::from_secs(60),
+        stall_timeout: Duration::from_secs(run.stall_timeout_s),
         collect_only: false,
     };
     let (result, stats) = run_learner::<ipc::Service>(&cfg, |p| {
@@ -50,6 +52,7 @@ pub fn learner(dir: &Path, resume: bool) -> Result<()> {
 
 /// A worker process.
 pub fn worker(dir: &Path, worker_id: u32, incarnation: u64, protocol: u32) -> Result<WorkerExit> {
+    leave_with_parent();
     let run = RunFile::load(dir)?;
     let cfg = WorkerConfig {
         run_id: run.run_id.clone(),
@@ -68,5 +71,19 @@ pub fn worker(dir: &Path, worker_id: u32, incarnation: u64, protocol: u32) -> Re
             std::process::exit(EXIT_PROTOCOL as i32);
         }
         Err(e) => bail!(e),
+    }
+}
+
+/// A worker whose supervisor died (even by SIGKILL) gets SIGTERM and leaves cleanly, instead of
+/// lingering as an orphan waiting for work that will never come.
+fn leave_with_parent() {
+    // SAFETY: prctl(PR_SET_PDEATHSIG) and getppid() only affect this process.
+    unsafe {
+        let parent = libc::getppid();
+        libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
+        // The parent may have died before the prctl call.
+        if libc::getppid() != parent {
+            libc::raise(libc::SIGTERM);
+        }
     }
 }

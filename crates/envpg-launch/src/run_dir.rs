@@ -24,6 +24,16 @@ pub struct RunFile {
     pub emulator_cost_us: u64,
     /// Silence after which a worker is presumed dead (ms).
     pub worker_timeout_ms: u64,
+    /// The learner gives up after this long without any episode while work is pending (s).
+    #[serde(default = "default_stall")]
+    pub stall_timeout_s: u64,
+    /// zenoh endpoint on which remote worker hosts join (multi-host runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub listen: Option<String>,
+}
+
+fn default_stall() -> u64 {
+    60
 }
 
 impl RunFile {

@@ -35,6 +35,8 @@ pub struct Outcome {
     pub stale_removed: usize,
     /// The learner's final line.
     pub done: Option<serde_json::Value>,
+    /// Traffic through the multi-host bridge, if one ran.
+    pub bridge: Option<serde_json::Value>,
 }
 
 /// Removes the resources of dead iceoryx2 nodes (from runs killed with SIGKILL); returns how
@@ -50,14 +52,16 @@ pub fn remove_stale_nodes() -> usize {
     dead.into_iter().filter(|view| view.clone().try_remove_stale_resources().is_ok()).count()
 }
 
-fn terminate(child: &Child) {
+/// Asks `child` to stop (SIGTERM).
+pub(crate) fn terminate(child: &Child) {
     // SAFETY: plain kill(2) on a pid we spawned.
     unsafe {
         libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
     }
 }
 
-fn spawn(args: &[String], stdout: bool) -> Result<Child> {
+/// Starts this executable with `args` (stdout piped if asked).
+pub(crate) fn spawn(args: &[String], stdout: bool) -> Result<Child> {
     let exe = std::env::current_exe()?;
     let mut cmd = Command::new(exe);
     cmd.args(args).stdin(Stdio::null());
@@ -88,7 +92,7 @@ fn worker_args(l: &Launch, id: usize, incarnation: u64) -> Vec<String> {
 }
 
 /// Waits up to `grace` for `children` to exit, terminating then killing stragglers.
-fn stop_all(children: &mut [&mut Child], grace: Duration) {
+pub(crate) fn stop_all(children: &mut [&mut Child], grace: Duration) {
     let start = Instant::now();
     for c in children.iter() {
         terminate(c);
@@ -105,7 +109,8 @@ fn stop_all(children: &mut [&mut Child], grace: Duration) {
     }
 }
 
-fn describe(s: &ExitStatus) -> String {
+/// A child's exit status in words.
+pub(crate) fn describe(s: &ExitStatus) -> String {
     use std::os::unix::process::ExitStatusExt;
     match (s.code(), s.signal()) {
         (Some(c), _) => format!("exit code {c}"),
@@ -148,6 +153,18 @@ pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Re
             }
         }
     });
+    // Remote worker hosts reach the learner through a bridge thread of this process.
+    let mut bridge = match &run.listen {
+        Some(endpoint) => match crate::multi_host::start_learner_bridge(&run, endpoint) {
+            Ok(b) => Some(b),
+            Err(e) => {
+                stop_all(&mut [&mut learner], Duration::from_secs(5));
+                node.try_cleanup_dead_nodes();
+                return Err(e);
+            }
+        },
+        None => None,
+    };
     let mut slots: Vec<Slot> = (0..run.workers)
         .map(|i| Ok(Slot { child: Some(spawn(&worker_args(l, i, 1), false)?), incarnation: 1, restarts: 0 }))
         .collect::<Result<_>>()?;
@@ -169,6 +186,15 @@ pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Re
         }
         if let Some(s) = learner.try_wait()? {
             break s;
+        }
+        if let Some(b) = bridge.as_mut()
+            && let Some(e) = b.failed()
+        {
+            let mut all: Vec<&mut Child> = slots.iter_mut().filter_map(|s| s.child.as_mut()).collect();
+            all.push(&mut learner);
+            stop_all(&mut all, Duration::from_secs(5));
+            node.try_cleanup_dead_nodes();
+            bail!("the multi-host bridge failed: {e}");
         }
         for (i, slot) in slots.iter_mut().enumerate() {
             let Some(child) = slot.child.as_mut() else { continue };
@@ -211,6 +237,9 @@ pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Re
         std::thread::sleep(Duration::from_millis(20));
     }
     stop_all(&mut rest, Duration::from_secs(3));
+    if let Some(b) = bridge {
+        out.bridge = Some(b.finish()?);
+    }
     node.try_cleanup_dead_nodes();
     if !status.success() {
         bail!("the learner failed ({})", describe(&status));

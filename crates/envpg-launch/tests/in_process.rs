@@ -57,3 +57,16 @@ fn bad_settings_exit_with_code_2_and_name_the_setting() {
         assert!(err.contains(needle), "{args:?}: {err}");
     }
 }
+
+#[cfg(not(feature = "multi-host"))]
+#[test]
+fn multi_host_options_say_how_to_enable_them() {
+    for args in
+        [&["--listen", "tcp/127.0.0.1:7447", "--preset", "smoke"][..], &["worker", "--connect", "tcp/127.0.0.1:7447"]]
+    {
+        let o = launch(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("--features envpg-launch/multi-host"), "{err}");
+    }
+}

@@ -62,12 +62,16 @@ impl Assignments {
         lost
     }
 
-    /// A heartbeat.
+    /// A heartbeat. A worker presumed dead that heartbeats again (its link came back, e.g. a
+    /// remote worker behind a bridge) rejoins; its old episodes were already requeued.
     pub fn heartbeat(&mut self, id: u32, incarnation: u64) {
-        if let Some(s) = self.slots.get_mut(&id)
-            && s.incarnation == incarnation
-        {
-            s.last_seen = Instant::now();
+        match self.slots.get_mut(&id) {
+            Some(s) if s.incarnation == incarnation => s.last_seen = Instant::now(),
+            Some(_) => {}
+            None => {
+                tracing::info!("worker {id} is back: it rejoins");
+                self.slots.insert(id, Slot { incarnation, last_seen: Instant::now(), outstanding: BTreeSet::new() });
+            }
         }
     }
 
@@ -125,5 +129,34 @@ impl Assignments {
             slot.outstanding.extend(eps);
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ids(n: u32) -> Vec<EpisodeId> {
+        (0..n).map(|index| EpisodeId { kind: 0, index }).collect()
+    }
+
+    #[test]
+    fn an_expired_worker_that_heartbeats_again_rejoins_without_its_old_work() {
+        let mut a = Assignments::new(Duration::from_millis(1));
+        let mut reassigned = 0;
+        a.join(7, 1, &mut reassigned);
+        a.start_iteration(0, &ids(4));
+        a.slots.get_mut(&7).unwrap().outstanding = ids(4).into_iter().collect();
+        a.queue.clear();
+        std::thread::sleep(Duration::from_millis(5));
+        assert_eq!(a.expire(&mut reassigned), 1);
+        assert_eq!((a.live(), a.queue.len(), reassigned), (0, 4, 4));
+        a.heartbeat(7, 1);
+        assert_eq!(a.live(), 1);
+        assert!(a.slots[&7].outstanding.is_empty(), "its old episodes stay queued for dispatch");
+        // A heartbeat of an old incarnation does not displace the live one.
+        a.join(7, 2, &mut reassigned);
+        a.heartbeat(7, 1);
+        assert_eq!(a.slots[&7].incarnation, 2);
     }
 }

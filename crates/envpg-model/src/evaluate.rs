@@ -125,12 +125,14 @@ pub(crate) fn eval_component(
         // Exits whose probability underflows towards 0 pass the support check yet leave the
         // system numerically singular. Expected steps in the component (same factorisation)
         // tell: beyond MAX_STEPS the values are meaningless, so treat the policy as improper.
+        // Every state takes at least one step, so a computed τ < 1 (even negative) is the
+        // rounding garbage of a numerically singular system, not a short stay.
         let tau = lu.solve(&DVector::from_element(k, 1.0)).ok_or(ModelError::Singular("policy evaluation"))?;
         let stuck: Vec<usize> = c
             .states
             .iter()
             .enumerate()
-            .filter(|&(i, _)| !(tau[i].is_finite() && tau[i] < MAX_STEPS))
+            .filter(|&(i, _)| !(tau[i].is_finite() && (1.0 - 1e-9..MAX_STEPS).contains(&tau[i])))
             .map(|(_, &s)| s)
             .collect();
         if !stuck.is_empty() {

@@ -463,7 +463,9 @@ fn table_figures(plan: &TablePlan, files: &[(Job, ResultFile)], dir: &Path) -> R
         .map(|k| {
             best.iter()
                 .find(|(bk, _)| bk == k)
-                .map(|(_, r)| format!("Oracle · κ = {k} · best of {} · J = {:.3}", plan.restarts, r.j.unwrap_or(f64::NAN)))
+                .map(|(_, r)| {
+                    format!("Oracle · κ = {k} · best of {} · J = {:.3}", plan.restarts, r.j.unwrap_or(f64::NAN))
+                })
                 .unwrap_or_default()
         })
         .collect();

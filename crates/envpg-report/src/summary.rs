@@ -184,7 +184,8 @@ impl Summary {
             c
         };
         let pct = |x: Option<f64>| x.map_or("–".to_string(), |x| format!("{:+.2}%", 100.0 * x));
-        let row = |name: &str, cells: Vec<String>, last: String| format!("| {name} | {} | {last} |\n", cells.join(" | "));
+        let row =
+            |name: &str, cells: Vec<String>, last: String| format!("| {name} | {} | {last} |\n", cells.join(" | "));
         s += &row("Algorithm 1", cols.iter().map(|c| cell(&c.alg1)).collect(), String::new());
         s += &row("Oracle, same ζ₀", cols.iter().map(|c| cell(&c.same_start)).collect(), String::new());
         s += &row(

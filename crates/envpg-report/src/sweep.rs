@@ -96,9 +96,8 @@ impl SweepPlan {
     /// The run spec of (value, seed), validated.
     pub fn spec(&self, value: &str, seed: u64) -> Result<RunSpec, ReportError> {
         let bad = |m: String| ReportError::Plan(m);
-        let number = |name: &str| {
-            value.trim().parse::<f64>().map_err(|e| bad(format!("--values: {name} value {value:?}: {e}")))
-        };
+        let number =
+            |name: &str| value.trim().parse::<f64>().map_err(|e| bad(format!("--values: {name} value {value:?}: {e}")));
         let (mut kappa, mut eta, mut config) = (self.kappa, self.eta, self.config.clone());
         match self.param.as_str() {
             "kappa" => kappa = number("kappa")?,
@@ -147,7 +146,10 @@ fn run_one(plan: &SweepPlan, runner: &dyn Alg1Runner, dir: &Path, value: &str, s
         .then(|| ResultFile::load(&result_path).ok())
         .flatten()
         .filter(|r| r.seed == seed && r.kappa == spec.kappa && r.eta == spec.eta && r.instance == spec.instance)
-        .filter(|r| r.config.as_ref().and_then(|c| serde_json::from_value::<AcConfig>(c.clone()).ok()) == Some(spec.config.clone()));
+        .filter(|r| {
+            r.config.as_ref().and_then(|c| serde_json::from_value::<AcConfig>(c.clone()).ok())
+                == Some(spec.config.clone())
+        });
     let result = match existing {
         Some(r) => r,
         None => runner.run(&spec, &result_path)?,
@@ -175,13 +177,16 @@ fn run_one(plan: &SweepPlan, runner: &dyn Alg1Runner, dir: &Path, value: &str, s
     })
 }
 
+/// Progress callback of [`run_sweep`]: (finished, total, value, seed, outcome).
+pub type OnRun<'a> = dyn Fn(usize, usize, &str, u64, &Result<SweepRow, String>) + Sync + 'a;
+
 /// Runs (or resumes: finished runs and studies are read back) the sweep in `dir` and writes
 /// its table, CSV and figure. `on_run` sees each (value, seed) as it finishes.
 pub fn run_sweep(
     plan: &SweepPlan,
     dir: &Path,
     runner: &dyn Alg1Runner,
-    on_run: &(dyn Fn(usize, usize, &str, u64, &Result<SweepRow, String>) + Sync),
+    on_run: &OnRun<'_>,
 ) -> Result<Vec<SweepRow>, ReportError> {
     plan.validate()?;
     std::fs::create_dir_all(dir.join("runs")).map_err(|e| ReportError::io(dir, e))?;
@@ -299,10 +304,10 @@ pub fn markdown(plan: &SweepPlan, rows: &[SweepRow]) -> String {
     for (value, js, at) in per_value(&plan.values, rows) {
         let j = if js.is_empty() { "–".into() } else { format!("{:.3} ± {:.3}", mean(&js), std(&js)) };
         let est = at.first().map_or("–", |r| kind_name(r.estimator));
-        let own = |f: fn(&envpg_ac::study::EstimatorStats) -> f64| {
-            m(at.iter().filter_map(|r| r.of(r.estimator).map(f)).collect())
-        };
-        let kind = |k, f: fn(&envpg_ac::study::EstimatorStats) -> f64| m(at.iter().filter_map(|r| r.of(k).map(f)).collect());
+        type Stat = fn(&envpg_ac::study::EstimatorStats) -> f64;
+        let own = |f: Stat| m(at.iter().filter_map(|r| r.of(r.estimator).map(f)).collect());
+        let kind =
+            |k, f: fn(&envpg_ac::study::EstimatorStats) -> f64| m(at.iter().filter_map(|r| r.of(k).map(f)).collect());
         let _ = writeln!(
             s,
             "| {value} | {j} | {est} | {} | {} | {} | {} | {} |",

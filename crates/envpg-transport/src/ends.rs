@@ -560,6 +560,22 @@ impl<S: Service> WorkerEnd<S> {
         self.notify_learner()
     }
 
+    /// Forwards a hello on behalf of another process (a bridge relaying remote workers): the
+    /// message as given, re-addressed to this run; wakes the learner.
+    pub fn forward_hello(&self, mut msg: Hello) -> Result<(), TransportError> {
+        msg.magic = MAGIC;
+        msg.run_id = run_id_bytes(&self.run_id);
+        self.hello
+            .send_copy(msg)
+            .map_err(|e| TransportError::Send { service: self.names.hello(), reason: format!("{e:?}") })?;
+        self.notify_learner()
+    }
+
+    /// The run id this end belongs to.
+    pub fn run_id(&self) -> &str {
+        &self.run_id
+    }
+
     /// The newest weights message, if one arrived since the last call.
     pub fn latest_weights(&self) -> Result<Option<(WeightsHeader, Vec<f32>)>, TransportError> {
         let mut out = None;

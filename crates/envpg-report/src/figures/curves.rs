@@ -46,6 +46,14 @@ fn x_end(runs: &[&ResultFile]) -> f64 {
     runs.iter().flat_map(|r| r.history.as_deref().unwrap_or(&[]).last()).map(|h| h.k as f64).fold(1.0, f64::max)
 }
 
+/// One κ's curve: κ, raw points, moving average, number of runs averaged.
+struct Curve {
+    kappa: f64,
+    raw: Vec<(f64, f64)>,
+    ma: Vec<(f64, f64)>,
+    runs: usize,
+}
+
 struct GradNorm<'a> {
     groups: Vec<(f64, Vec<&'a ResultFile>)>,
     window: usize,
@@ -61,17 +69,17 @@ impl Figure for GradNorm<'_> {
         DB::ErrorType: 'static,
     {
         root.fill(&WHITE)?;
-        let series: Vec<(f64, Vec<(f64, f64)>, Vec<(f64, f64)>, usize)> = self
+        let series: Vec<Curve> = self
             .groups
             .iter()
             .map(|(k, runs)| {
                 let raw = mean_series(runs, |h| h.grad_norm);
                 let ma = smooth(&raw, self.window);
-                (*k, raw, ma, runs.len())
+                Curve { kappa: *k, raw, ma, runs: runs.len() }
             })
             .collect();
-        let ma_max = series.iter().flat_map(|s| s.2.iter().map(|p| p.1)).fold(0.0, f64::max);
-        let mut raw_all: Vec<f64> = series.iter().flat_map(|s| s.1.iter().map(|p| p.1)).collect();
+        let ma_max = series.iter().flat_map(|s| s.ma.iter().map(|p| p.1)).fold(0.0, f64::max);
+        let mut raw_all: Vec<f64> = series.iter().flat_map(|s| s.raw.iter().map(|p| p.1)).collect();
         raw_all.sort_by(f64::total_cmp);
         let p99 = raw_all.get(raw_all.len() * 99 / 100).copied().unwrap_or(1.0);
         let top = (1.15 * ma_max).max(p99).max(1e-12);
@@ -93,7 +101,7 @@ impl Figure for GradNorm<'_> {
             .axis_desc_style(text(14))
             .light_line_style(WHITE.mix(0.0))
             .draw()?;
-        for (i, (k, raw, ma, n)) in series.iter().enumerate() {
+        for (i, Curve { kappa: k, raw, ma, runs: n }) in series.iter().enumerate() {
             let c = colour(i);
             chart.draw_series(LineSeries::new(raw.iter().map(|&(x, y)| (x, y.min(top))), c.mix(0.18)))?;
             let label = if *n > 1 { format!("κ = {k} (mean of {n} seeds)") } else { format!("κ = {k}") };
@@ -159,13 +167,15 @@ where
     let exact: Vec<(u64, Vec<(f64, f64)>)> = runs
         .iter()
         .map(|r| {
-            let pts = r.history.as_deref().unwrap_or(&[]).iter().filter_map(|h| Some((h.k as f64, h.j_exact?))).collect();
+            let pts =
+                r.history.as_deref().unwrap_or(&[]).iter().filter_map(|h| Some((h.k as f64, h.j_exact?))).collect();
             (r.seed, pts)
         })
         .collect();
     let j_h = smooth(&mean_series(runs, |h| h.j_h_estimate), window);
-    // The early, hot iterations dwarf everything after; scale the axis to the last 90%.
-    let late = |x: f64| x >= 0.1 * end;
+    // The early, hot iterations dwarf everything after: scale the axis to the last 75%, at
+    // most 60% above the lowest value, and pin what lies above to the top edge.
+    let late = |x: f64| x >= 0.25 * end;
     let values: Vec<f64> = exact
         .iter()
         .flat_map(|(_, p)| p.iter())
@@ -176,7 +186,7 @@ where
         .collect();
     let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
+    let (lo, hi) = if lo.is_finite() { (lo, hi.min(lo + 0.6 * lo.abs())) } else { (0.0, 1.0) };
     let pad = 0.05 * (hi - lo).max(1e-3 * hi.abs().max(1.0));
     let (lo, hi) = (lo - pad, hi + pad);
     let clamp = |p: &(f64, f64)| (p.0, p.1.clamp(lo, hi));

@@ -142,7 +142,10 @@ where
     for j in 0..m {
         let xy = uav(&r.zeta, j);
         // A black triangle under a smaller coloured one: a marker with an outline.
-        chart.draw_series([TriangleMarker::new(xy, 11, BLACK.filled()), TriangleMarker::new(xy, 8, colour(j).filled())])?;
+        chart.draw_series([
+            TriangleMarker::new(xy, 11, BLACK.filled()),
+            TriangleMarker::new(xy, 8, colour(j).filled()),
+        ])?;
         chart.draw_series(std::iter::once(Text::new(
             format!("U{}", j + 1),
             (xy.0 - 1.3 * head, xy.1 + 1.5 * head),
@@ -191,7 +194,8 @@ where
     let history = r.history.as_deref().unwrap_or(&[]);
     // A few hundred points per path are plenty on a 500-pixel panel.
     let stride = history.len().div_ceil(400).max(1);
-    let path: Vec<&[f64]> = history.iter().step_by(stride).map(|h| h.zeta.as_slice()).chain([r.zeta.as_slice()]).collect();
+    let path: Vec<&[f64]> =
+        history.iter().step_by(stride).map(|h| h.zeta.as_slice()).chain([r.zeta.as_slice()]).collect();
     let dest = (r.instance.dest[0], r.instance.dest[1]);
     let pts = r
         .instance
@@ -209,7 +213,8 @@ where
         .y_label_area_size(36)
         .build_cartesian_2d(xr, yr)?;
     chart.configure_mesh().disable_mesh().x_labels(5).y_labels(5).label_style(text(11)).draw()?;
-    chart.draw_series(r.instance.users.iter().map(|u| Circle::new((u[0], u[1]), 2, RGBColor(190, 190, 190).filled())))?;
+    chart
+        .draw_series(r.instance.users.iter().map(|u| Circle::new((u[0], u[1]), 2, RGBColor(190, 190, 190).filled())))?;
     chart.draw_series(std::iter::once(Rectangle::new(
         [(dest.0 - 0.4 * head, dest.1 - 0.4 * head), (dest.0 + 0.4 * head, dest.1 + 0.4 * head)],
         BLACK.filled(),

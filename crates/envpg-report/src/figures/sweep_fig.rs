@@ -11,6 +11,9 @@ use crate::ReportError;
 use crate::stats::{mean, std};
 use crate::sweep::{KINDS, SweepRow, kind_name};
 
+/// A statistic of one estimator.
+type Stat = fn(&EstimatorStats) -> f64;
+
 struct Sweep<'a> {
     param: &'a str,
     values: &'a [String],
@@ -24,7 +27,7 @@ impl Sweep<'_> {
     }
 
     /// Per estimator: (value index, mean of `f`) where defined.
-    fn estimator_means(&self, f: fn(&EstimatorStats) -> f64) -> Vec<Vec<(f64, f64)>> {
+    fn estimator_means(&self, f: Stat) -> Vec<Vec<(f64, f64)>> {
         KINDS
             .iter()
             .map(|&k| {
@@ -40,7 +43,8 @@ impl Sweep<'_> {
 }
 
 fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
-    let (lo, hi) = values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    let (lo, hi) =
+        values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
     if !lo.is_finite() {
         return 0.0..1.0;
     }
@@ -63,7 +67,11 @@ impl Figure for Sweep<'_> {
         let xr = -0.5..n as f64 - 0.5;
         let label = |x: &f64| {
             let i = x.round();
-            if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < n { self.values[i as usize].clone() } else { String::new() }
+            if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < n {
+                self.values[i as usize].clone()
+            } else {
+                String::new()
+            }
         };
         // (a) final J per seed and mean ± std.
         let js: Vec<Vec<f64>> = (0..n).map(|i| self.at(i).filter_map(|r| r.j).collect()).collect();
@@ -84,7 +92,9 @@ impl Figure for Sweep<'_> {
             .light_line_style(WHITE.mix(0.0))
             .draw()?;
         chart.draw_series(
-            js.iter().enumerate().flat_map(|(i, v)| v.iter().map(move |&j| Circle::new((i as f64, j), 3, colour(7).mix(0.6).filled()))),
+            js.iter()
+                .enumerate()
+                .flat_map(|(i, v)| v.iter().map(move |&j| Circle::new((i as f64, j), 3, colour(7).mix(0.6).filled()))),
         )?;
         let means: Vec<(f64, f64, f64)> =
             js.iter().enumerate().filter(|(_, v)| !v.is_empty()).map(|(i, v)| (i as f64, mean(v), std(v))).collect();
@@ -97,7 +107,7 @@ impl Figure for Sweep<'_> {
             ])?;
         }
         // (b) log10 variance and (c) relative bias of every estimator.
-        let panels: [(&str, &str, fn(&EstimatorStats) -> f64); 2] = [
+        let panels: [(&str, &str, Stat); 2] = [
             ("ζ-gradient estimate: variance", "log10 trace of covariance", |e| e.variance.max(1e-300).log10()),
             ("ζ-gradient estimate: bias", "‖mean − exact‖ / ‖exact‖", |e| e.rel_bias),
         ];
