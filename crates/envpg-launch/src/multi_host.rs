@@ -120,6 +120,11 @@ mod imp {
     use crate::run_dir::{RunFile, new_run_id};
     use crate::supervise::{describe, spawn, stop_all};
 
+    /// How long a bridge waits on zenoh before looking at the iceoryx2 side again: it bounds
+    /// the latency a hop adds (each iteration crosses the bridge twice each way), at the price
+    /// of a wake-up per period when idle.
+    const PUMP_WAIT: Duration = Duration::from_micros(250);
+
     /// How long the learner host's bridge stays up after the run for remote workers to leave:
     /// longer than the bridge's link lease (3 s) plus zenoh's reconnection period (≤ 4 s).
     const END_GRACE: Duration = Duration::from_secs(10);
@@ -182,7 +187,7 @@ mod imp {
                 }
             };
             while !flag.load(Ordering::SeqCst) {
-                bridge.pump(Duration::from_millis(2))?;
+                bridge.pump(PUMP_WAIT)?;
             }
             // Pass the end of the run on to the remote hosts: stay until their workers have
             // left, long enough for a host whose link broke at the end to reconnect and resync.
@@ -190,7 +195,7 @@ mod imp {
             while grace.elapsed() < Duration::from_millis(200)
                 || (bridge.remote_workers() > 0 && grace.elapsed() < END_GRACE)
             {
-                bridge.pump(Duration::from_millis(2))?;
+                bridge.pump(PUMP_WAIT)?;
             }
             Ok(serde_json::to_value(bridge.stats())?)
         });
@@ -270,7 +275,7 @@ mod imp {
                 break Err(HostInterrupted.into());
             }
             let before = bridge.received();
-            if let Err(e) = bridge.pump(Duration::from_millis(2)) {
+            if let Err(e) = bridge.pump(PUMP_WAIT) {
                 break Err(e.into());
             }
             if bridge.received() != before {
