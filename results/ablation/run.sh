@@ -1,0 +1,20 @@
+#!/bin/bash
+# Ablation of the `uav` preset: each change of Algorithm 1 reverted alone (to the paper's form),
+# κ ∈ {1, 0.85}, seeds 1..3, oracle best of 4 restarts. About 8 minutes on 2 cores.
+# Run from the repository root: bash results/ablation/run.sh
+set -euo pipefail
+declare -A CH=(
+  [actor-pg]="--set actor_update=pg"
+  [estimator-sampled]="--set zeta_estimator=sampled"
+  [no-explore]="--set explore_episodes=0"
+  [critic-init-default]="--set critic_init=default"
+  [zeta-input-absolute]="--set zeta_input=absolute"
+  [no-clip-no-average]="--set zeta_clip=0 --set zeta_average=0"
+  [no-relocate]="--set relocate_every=0"
+  [no-loop-backoff]="--set loop_tolerance=1.0"
+)
+for name in "${!CH[@]}"; do
+  # shellcheck disable=SC2086
+  cargo run --release --bin envpg -- table --kappas 1,0.85 --seeds 1..3 --restarts 4 ${CH[$name]} \
+    --quiet --out "results/ablation/$name"
+done
