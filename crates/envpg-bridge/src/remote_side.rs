@@ -188,6 +188,9 @@ impl RemoteBridge {
         self.last_down = Instant::now();
         tracing::debug!("resync: {} message(s) from the learner host", msgs.len());
         if msgs.is_empty() {
+            if !self.link_lost {
+                tracing::warn!("the learner host does not answer; waiting for the link to come back");
+            }
             self.link_lost = true;
         } else if self.link_lost {
             // The learner host answers again after a silence: the link broke and zenoh has
@@ -203,7 +206,8 @@ impl RemoteBridge {
     }
 
     fn redeclare(&mut self) -> Result<(), BridgeError> {
-        tracing::info!("link to the learner host restored; declaring the bridge's routes anew");
+        // A warning like the loss it ends, so a user sees both.
+        tracing::warn!("link to the learner host restored; declaring the bridge's routes anew");
         // The new subscriber first, so nothing published meanwhile is missed.
         self.down = self.session.declare_subscriber(down_key(&self.reply.run_id)).wait().map_err(err("subscriber"))?;
         self.up = self

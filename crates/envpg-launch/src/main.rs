@@ -154,7 +154,9 @@ impl std::error::Error for InputError {}
 
 fn main() -> ExitCode {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+        // zenoh's own warnings (e.g. about scouting while a learner host is not up yet) are
+        // noise here: the bridge reports what matters itself.
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn,zenoh=error,zenoh_transport=error"));
     let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).try_init();
     envpg_transport::quiet_iceoryx2_logs();
     let cli = Cli::parse();
