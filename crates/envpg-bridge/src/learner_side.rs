@@ -8,7 +8,7 @@
 
 use std::collections::BTreeSet;
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use envpg_protocol::{PROTOCOL_VERSION, hello_kind, run_id_bytes};
 use envpg_transport::{WorkerEnd, ipc};
@@ -29,6 +29,9 @@ use crate::wire::{
 
 /// Worker id of the proxy itself (it never joins, so the learner never assigns it work).
 const PROXY_ID: u32 = u32::MAX - 1;
+
+/// How often the bridge checks, when idle, that its routes to remote hosts still exist.
+const ROUTE_CHECK: Duration = Duration::from_secs(1);
 
 /// Ids of the first joining host start here; each host gets its own block.
 pub const ID_BLOCK: u32 = 1000;
@@ -75,7 +78,8 @@ struct Shared {
 
 /// The learner host's end of the bridge.
 pub struct LearnerBridge {
-    _session: zenoh::Session,
+    session: zenoh::Session,
+    last_route_check: Instant,
     proxy: WorkerEnd<ipc::Service>,
     down: Publisher<'static>,
     up: Subscriber<FifoChannelHandler<Sample>>,
@@ -178,7 +182,8 @@ impl LearnerBridge {
             .map_err(err("publisher"))?;
         let up = session.declare_subscriber(up_key(&cfg.run_id)).wait().map_err(err("subscriber"))?;
         Ok(Self {
-            _session: session,
+            session,
+            last_route_check: Instant::now(),
             proxy,
             down,
             up,
@@ -285,8 +290,31 @@ impl LearnerBridge {
         }
         if n > 0 {
             self.proxy.notify_learner()?;
+        } else if self.last_route_check.elapsed() > ROUTE_CHECK {
+            self.last_route_check = Instant::now();
+            self.check_routes()?;
         }
         Ok(finished)
+    }
+
+    /// With remote workers around, our publisher must match their hosts' subscribers; after a
+    /// break of the link zenoh's reconnected session does not always bring the routes back
+    /// (seen with zenoh 1.10 peers), so declare ours anew. Only called with the up queue
+    /// drained, so nothing queued in the old subscriber is lost.
+    fn check_routes(&mut self) -> Result<(), BridgeError> {
+        if self.remote.is_empty() || self.down.matching_status().wait().map_err(err("matching status"))?.matching() {
+            return Ok(());
+        }
+        tracing::warn!("no route to the remote hosts' subscribers; declaring the bridge's routes anew");
+        let run_id = self.proxy.run_id().to_owned();
+        self.up = self.session.declare_subscriber(up_key(&run_id)).wait().map_err(err("subscriber"))?;
+        self.down = self
+            .session
+            .declare_publisher(down_key(&run_id))
+            .congestion_control(CongestionControl::Block)
+            .wait()
+            .map_err(err("publisher"))?;
+        Ok(())
     }
 
     fn relay_hello(&mut self, h: HelloMsg) -> Result<(), BridgeError> {

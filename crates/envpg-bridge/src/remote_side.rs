@@ -53,6 +53,7 @@ pub struct RemoteBridge {
     weights_k: Option<u64>,
     finished: bool,
     received: u64,
+    episodes_sent: u64,
     last_down: Instant,
     link_lost: bool,
 }
@@ -127,6 +128,7 @@ impl RemoteBridge {
             weights_k: None,
             finished: false,
             received: 0,
+            episodes_sent: 0,
             last_down: Instant::now(),
             link_lost: false,
         })
@@ -157,6 +159,11 @@ impl RemoteBridge {
     /// The mirror's node (termination requests).
     pub fn node(&self) -> Option<&iceoryx2::prelude::Node<ipc::Service>> {
         self.mirror.as_ref().map(|m| m.node())
+    }
+
+    /// Episodes of this host's workers sent to the learner host so far.
+    pub fn episodes_sent(&self) -> u64 {
+        self.episodes_sent
     }
 
     /// Messages received from the learner host so far (a liveness signal).
@@ -192,10 +199,11 @@ impl RemoteBridge {
                 tracing::warn!("the learner host does not answer; waiting for the link to come back");
             }
             self.link_lost = true;
-        } else if self.link_lost {
-            // The learner host answers again after a silence: the link broke and zenoh has
-            // reconnected, but routes of declarations made before the break do not always
-            // come back (seen with zenoh 1.10 peers), so declare ours anew.
+        } else if self.link_lost || !self.up_matches()? {
+            // The learner host answers, but after a break of the link (noticed, or missed while
+            // a put was blocked) zenoh's reconnected session does not always bring back the
+            // routes of declarations made before it (seen with zenoh 1.10 peers): the learner's
+            // subscriber no longer matches our publisher. Declare ours anew.
             self.link_lost = false;
             self.redeclare()?;
         }
@@ -203,6 +211,10 @@ impl RemoteBridge {
             self.apply(m, false)?;
         }
         Ok(())
+    }
+
+    fn up_matches(&self) -> Result<bool, BridgeError> {
+        Ok(self.up.matching_status().wait().map_err(err("matching status"))?.matching())
     }
 
     fn redeclare(&mut self) -> Result<(), BridgeError> {
@@ -257,6 +269,7 @@ impl RemoteBridge {
         let workers = self.cfg.workers;
         // Local workers → learner.
         let mut up = Vec::new();
+        let mut episodes = 0;
         {
             let m = self.mirror();
             m.refresh();
@@ -269,7 +282,10 @@ impl RemoteBridge {
             m.receive_episodes(|h, recs| {
                 if h.worker_id < workers {
                     match encode("up", &Up::Episode(EpisodeMsg::from_parts(h, recs, base + h.worker_id))) {
-                        Ok(b) => up.push(b),
+                        Ok(b) => {
+                            up.push(b);
+                            episodes += 1;
+                        }
                         Err(e) => bad = Some(e),
                     }
                 }
@@ -283,6 +299,7 @@ impl RemoteBridge {
         for b in up {
             self.up.put(b).wait().map_err(err("put"))?;
         }
+        self.episodes_sent += episodes;
         // Learner → local workers.
         let mut n = 0;
         loop {

@@ -270,6 +270,7 @@ mod imp {
             .collect::<Result<_>>()?;
         let mut last_check = Instant::now();
         let mut last_heard = Instant::now();
+        let mut announced = false;
         let result = loop {
             if bridge.node().is_some_and(|n| n.wait(Duration::ZERO).is_err()) {
                 break Err(HostInterrupted.into());
@@ -277,6 +278,10 @@ mod imp {
             let before = bridge.received();
             if let Err(e) = bridge.pump(PUMP_WAIT) {
                 break Err(e.into());
+            }
+            if !announced && bridge.episodes_sent() > 0 {
+                announced = true;
+                eprintln!("this host's workers are running: first episodes sent to the learner host");
             }
             if bridge.received() != before {
                 last_heard = Instant::now();

@@ -248,7 +248,7 @@ fn watch_stderr(child: &mut Child) -> Arc<Mutex<String>> {
     text
 }
 
-/// Runs with a worker host, cuts the link once that host has joined and the learner has
+/// Runs with a worker host, cuts the link once that host has sent episodes and the learner has
 /// checkpointed since (mid-run), and checks the result is the in-process one.
 fn cut_mid_run(local_workers: u32) {
     let dir = tempfile::tempdir().unwrap();
@@ -268,14 +268,14 @@ fn cut_mid_run(local_workers: u32) {
     let mut remote = hosts.worker_host(1);
     let remote_err = watch_stderr(&mut remote);
     let start = Instant::now();
-    while !remote_err.lock().unwrap().contains("joined run") {
-        assert!(start.elapsed() < Duration::from_secs(120), "watchdog: the worker host did not join in 120 s");
+    while !remote_err.lock().unwrap().contains("first episodes sent") {
+        assert!(start.elapsed() < Duration::from_secs(120), "watchdog: no episodes from the worker host in 120 s");
         std::thread::sleep(Duration::from_millis(20));
     }
-    let joined = std::time::SystemTime::now();
+    let contributing = std::time::SystemTime::now();
     let checkpoint = dir.path().join("run").join("checkpoint.bin");
-    while !std::fs::metadata(&checkpoint).and_then(|m| m.modified()).is_ok_and(|t| t > joined) {
-        assert!(start.elapsed() < Duration::from_secs(120), "watchdog: no checkpoint after the join");
+    while !std::fs::metadata(&checkpoint).and_then(|m| m.modified()).is_ok_and(|t| t > contributing) {
+        assert!(start.elapsed() < Duration::from_secs(120), "watchdog: no checkpoint after the first remote episodes");
         std::thread::sleep(Duration::from_millis(20));
     }
     // Longer than the bridge's 3 s link lease: the zenoh session breaks and reconnects.
