@@ -14,14 +14,12 @@ use envpg_protocol::{PROTOCOL_VERSION, hello_kind, run_id_bytes};
 use envpg_transport::{WorkerEnd, ipc};
 use serde::Serialize;
 use zenoh::Wait;
-use zenoh::handlers::FifoChannelHandler;
-use zenoh::pubsub::{Publisher, Subscriber};
-use zenoh::qos::CongestionControl;
+use zenoh::bytes::ZBytes;
+use zenoh::pubsub::Publisher;
 use zenoh::query::Queryable;
-use zenoh::sample::Sample;
 
 use crate::BridgeError;
-use crate::session::{err, open};
+use crate::session::{Inbox, err, open, routes};
 use crate::wire::{
     Down, HelloMsg, Info, JOIN_KEY, JoinReply, JoinRequest, Tasks, Up, Weights, decode, down_key, encode, latest_key,
     peek_version, up_key,
@@ -72,7 +70,7 @@ pub struct BridgeStats {
 struct Shared {
     template: JoinReply,
     next_block: u32,
-    latest: Vec<Vec<u8>>,
+    latest: Vec<ZBytes>,
     hosts: u32,
 }
 
@@ -82,13 +80,14 @@ pub struct LearnerBridge {
     last_route_check: Instant,
     proxy: WorkerEnd<ipc::Service>,
     down: Publisher<'static>,
-    up: Subscriber<FifoChannelHandler<Sample>>,
+    up: Inbox,
     _join: Queryable<()>,
     _latest: Queryable<()>,
     shared: Arc<Mutex<Shared>>,
     remote: BTreeSet<u32>,
     info: Option<Info>,
-    weights: Option<Vec<u8>>,
+    /// The latest weights message, encoded once: sent, then kept for resync answers.
+    weights: Option<ZBytes>,
     stats: BridgeStats,
 }
 
@@ -175,12 +174,7 @@ impl LearnerBridge {
             })
             .wait()
             .map_err(err("latest queryable"))?;
-        let down = session
-            .declare_publisher(down_key(&cfg.run_id))
-            .congestion_control(CongestionControl::Block)
-            .wait()
-            .map_err(err("publisher"))?;
-        let up = session.declare_subscriber(up_key(&cfg.run_id)).wait().map_err(err("subscriber"))?;
+        let (down, up) = routes(&session, down_key(&cfg.run_id), up_key(&cfg.run_id))?;
         Ok(Self {
             session,
             last_route_check: Instant::now(),
@@ -210,8 +204,7 @@ impl LearnerBridge {
         s
     }
 
-    fn put(&mut self, msg: &Down) -> Result<(), BridgeError> {
-        let bytes = encode("down", msg)?;
+    fn put(&mut self, bytes: ZBytes) -> Result<(), BridgeError> {
         self.down.put(bytes).wait().map_err(err("put"))?;
         self.stats.down += 1;
         Ok(())
@@ -220,7 +213,7 @@ impl LearnerBridge {
     fn cache_latest(&mut self) -> Result<(), BridgeError> {
         let mut latest = Vec::new();
         if let Some(i) = self.info {
-            latest.push(encode("down", &Down::Info(i))?);
+            latest.push(encode("down", &Down::Info(i))?.into());
         }
         latest.extend(self.weights.clone());
         self.shared.lock().expect("bridge state").latest = latest;
@@ -236,22 +229,23 @@ impl LearnerBridge {
         let mut moved = false;
         if self.info != Some(info) {
             self.info = Some(info);
-            self.put(&Down::Info(info))?;
+            self.put(encode("down", &Down::Info(info))?.into())?;
             self.cache_latest()?;
             moved = true;
         }
         let mut weights = None;
         self.proxy.with_latest_weights(|h, p| weights = Some(Weights::from_parts(h, p)))?;
         if let Some(w) = weights {
-            let msg = Down::Weights(w);
-            self.put(&msg)?;
-            self.weights = Some(encode("down", &msg)?);
+            let bytes = ZBytes::from(encode("down", &Down::Weights(w))?);
+            // ZBytes clones share the buffer.
+            self.put(bytes.clone())?;
+            self.weights = Some(bytes);
             self.cache_latest()?;
             moved = true;
         }
         for (h, ids) in self.proxy.take_tasks()? {
             if self.remote.contains(&h.worker_id) {
-                self.put(&Down::Tasks(Tasks::from_parts(&h, &ids)))?;
+                self.put(encode("down", &Down::Tasks(Tasks::from_parts(&h, &ids)))?.into())?;
                 moved = true;
             }
         }
@@ -307,13 +301,7 @@ impl LearnerBridge {
         }
         tracing::warn!("no route to the remote hosts' subscribers; declaring the bridge's routes anew");
         let run_id = self.proxy.run_id().to_owned();
-        self.up = self.session.declare_subscriber(up_key(&run_id)).wait().map_err(err("subscriber"))?;
-        self.down = self
-            .session
-            .declare_publisher(down_key(&run_id))
-            .congestion_control(CongestionControl::Block)
-            .wait()
-            .map_err(err("publisher"))?;
+        (self.down, self.up) = routes(&self.session, down_key(&run_id), up_key(&run_id))?;
         Ok(())
     }
 

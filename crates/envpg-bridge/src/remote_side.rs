@@ -10,14 +10,11 @@ use std::time::{Duration, Instant};
 
 use envpg_transport::{LearnerEnd, LinkSizes, ipc};
 use zenoh::Wait;
-use zenoh::handlers::FifoChannelHandler;
-use zenoh::pubsub::{Publisher, Subscriber};
-use zenoh::qos::CongestionControl;
+use zenoh::pubsub::Publisher;
 use zenoh::query::ConsolidationMode;
-use zenoh::sample::Sample;
 
 use crate::BridgeError;
-use crate::session::{err, open};
+use crate::session::{Inbox, err, open, routes};
 use crate::wire::{
     Down, EpisodeMsg, HelloMsg, JOIN_KEY, JoinReply, JoinRequest, Up, decode, down_key, encode, latest_key,
     peek_version, up_key,
@@ -43,10 +40,9 @@ pub type Joined = JoinReply;
 
 /// A worker host's end of the bridge.
 pub struct RemoteBridge {
-    _session: zenoh::Session,
     cfg: RemoteConfig,
     reply: JoinReply,
-    down: Subscriber<FifoChannelHandler<Sample>>,
+    down: Inbox,
     up: Publisher<'static>,
     session: zenoh::Session,
     mirror: Option<LearnerEnd<ipc::Service>>,
@@ -111,14 +107,8 @@ impl RemoteBridge {
             }
             std::thread::sleep(Duration::from_millis(200));
         };
-        let down = session.declare_subscriber(down_key(&reply.run_id)).wait().map_err(err("subscriber"))?;
-        let up = session
-            .declare_publisher(up_key(&reply.run_id))
-            .congestion_control(CongestionControl::Block)
-            .wait()
-            .map_err(err("publisher"))?;
+        let (up, down) = routes(&session, up_key(&reply.run_id), down_key(&reply.run_id))?;
         Ok(Self {
-            _session: session.clone(),
             cfg: cfg.clone(),
             reply,
             down,
@@ -220,14 +210,7 @@ impl RemoteBridge {
     fn redeclare(&mut self) -> Result<(), BridgeError> {
         // A warning like the loss it ends, so a user sees both.
         tracing::warn!("link to the learner host restored; declaring the bridge's routes anew");
-        // The new subscriber first, so nothing published meanwhile is missed.
-        self.down = self.session.declare_subscriber(down_key(&self.reply.run_id)).wait().map_err(err("subscriber"))?;
-        self.up = self
-            .session
-            .declare_publisher(up_key(&self.reply.run_id))
-            .congestion_control(CongestionControl::Block)
-            .wait()
-            .map_err(err("publisher"))?;
+        (self.up, self.down) = routes(&self.session, up_key(&self.reply.run_id), down_key(&self.reply.run_id))?;
         Ok(())
     }
 

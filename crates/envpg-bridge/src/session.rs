@@ -1,5 +1,9 @@
 //! Opening zenoh sessions the way both sides of the bridge need them.
 
+use zenoh::handlers::FifoChannelHandler;
+use zenoh::pubsub::{Publisher, Subscriber};
+use zenoh::qos::CongestionControl;
+use zenoh::sample::Sample;
 use zenoh::{Config, Session, Wait};
 
 use crate::BridgeError;
@@ -34,4 +38,24 @@ pub(crate) fn open(listen: Option<&str>, connect: Option<&str>) -> Result<Sessio
 /// Maps a zenoh error of operation `what`.
 pub(crate) fn err(what: &'static str) -> impl FnOnce(zenoh::Error) -> BridgeError {
     zerr(what)
+}
+
+/// A subscriber whose samples queue up until read.
+pub(crate) type Inbox = Subscriber<FifoChannelHandler<Sample>>;
+
+/// Declares a bridge end's routes: a subscriber on `inbound` (first, so nothing published
+/// meanwhile is missed when routes are declared anew) and a publisher on `outbound` with
+/// blocking congestion control, so backpressure reaches the sender.
+pub(crate) fn routes(
+    session: &Session,
+    outbound: String,
+    inbound: String,
+) -> Result<(Publisher<'static>, Inbox), BridgeError> {
+    let sub = session.declare_subscriber(inbound).wait().map_err(err("subscriber"))?;
+    let publisher = session
+        .declare_publisher(outbound)
+        .congestion_control(CongestionControl::Block)
+        .wait()
+        .map_err(err("publisher"))?;
+    Ok((publisher, sub))
 }

@@ -106,7 +106,6 @@ mod imp {
 
 #[cfg(feature = "multi-host")]
 mod imp {
-    use std::process::Child;
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::thread::JoinHandle;
@@ -116,9 +115,8 @@ mod imp {
     use envpg_bridge::{LearnerBridge, LearnerBridgeConfig, RemoteBridge, RemoteConfig};
 
     use super::*;
-    use crate::roles::EXIT_PROTOCOL;
     use crate::run_dir::{RunFile, new_run_id};
-    use crate::supervise::{describe, spawn, stop_all};
+    use crate::supervise::{WorkerPool, stop_all};
 
     /// How long a bridge waits on zenoh before looking at the iceoryx2 side again: it bounds
     /// the latency a hop adds (each iteration crosses the bridge twice each way), at the price
@@ -213,24 +211,6 @@ mod imp {
         format!("{}/{}", h.trim(), std::process::id())
     }
 
-    struct Slot {
-        child: Option<Child>,
-        incarnation: u64,
-        restarts: u32,
-    }
-
-    fn worker_args(dir: &std::path::Path, id: usize, incarnation: u64) -> Vec<String> {
-        vec![
-            "worker".into(),
-            "--run-dir".into(),
-            dir.display().to_string(),
-            "--worker-id".into(),
-            id.to_string(),
-            "--incarnation".into(),
-            incarnation.to_string(),
-        ]
-    }
-
     /// `envpg-launch worker --connect`: joins the learner host, mirrors its run locally and
     /// runs `workers` worker processes (restarting crashed ones) until the run ends.
     pub fn worker_host(h: &WorkerHost) -> Result<()> {
@@ -265,9 +245,7 @@ mod imp {
             joined.id_base,
             joined.id_base as usize + h.workers - 1
         );
-        let mut slots: Vec<Slot> = (0..h.workers)
-            .map(|i| Ok(Slot { child: Some(spawn(&worker_args(&dir, i, 1), false)?), incarnation: 1, restarts: 0 }))
-            .collect::<Result<_>>()?;
+        let mut workers = WorkerPool::start(&dir, h.workers, h.protocol, 20)?;
         let mut last_check = Instant::now();
         let mut last_heard = Instant::now();
         let mut announced = false;
@@ -296,25 +274,10 @@ mod imp {
                 continue;
             }
             last_check = Instant::now();
-            for (i, slot) in slots.iter_mut().enumerate() {
-                let Some(child) = slot.child.as_mut() else { continue };
-                let Some(s) = child.try_wait()? else { continue };
-                if s.success() || bridge.finished() {
-                    slot.child = None;
-                } else if s.code() == Some(EXIT_PROTOCOL as i32) {
-                    eprintln!("worker {i} refused the run (protocol version mismatch); not restarting it");
-                    slot.child = None;
-                } else if slot.restarts >= 20 {
-                    eprintln!("worker {i} exited ({}) too often; giving up on it", describe(&s));
-                    slot.child = None;
-                } else {
-                    slot.restarts += 1;
-                    slot.incarnation += 1;
-                    eprintln!("worker {i} exited ({}); starting a replacement", describe(&s));
-                    slot.child = Some(spawn(&worker_args(&dir, i, slot.incarnation), false)?);
-                }
+            if let Err(e) = workers.check(bridge.finished()) {
+                break Err(e);
             }
-            if slots.iter().all(|s| s.child.is_none()) {
+            if workers.all_stopped() {
                 break if bridge.finished() {
                     Ok(())
                 } else {
@@ -322,8 +285,7 @@ mod imp {
                 };
             }
         };
-        let mut rest: Vec<&mut Child> = slots.iter_mut().filter_map(|s| s.child.as_mut()).collect();
-        stop_all(&mut rest, Duration::from_secs(3));
+        stop_all(&mut workers.running(), Duration::from_secs(3));
         let _ = std::fs::remove_dir_all(&dir);
         if result.is_ok() {
             eprintln!("run {} finished", joined.run_id);

@@ -2,7 +2,7 @@
 //! progress, forwards termination, and cleans up.
 
 use std::io::BufRead;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
@@ -77,18 +77,84 @@ struct Slot {
     restarts: u32,
 }
 
-fn worker_args(l: &Launch, id: usize, incarnation: u64) -> Vec<String> {
-    vec![
-        "worker".into(),
-        "--run-dir".into(),
-        l.dir.display().to_string(),
-        "--worker-id".into(),
-        id.to_string(),
-        "--incarnation".into(),
-        incarnation.to_string(),
-        "--protocol-version".into(),
-        l.worker_protocol.to_string(),
-    ]
+/// The worker processes of one host, each in a slot that a crashed worker's replacement takes
+/// over (with the next incarnation); used by the local supervisor and by `worker --connect`.
+pub(crate) struct WorkerPool {
+    dir: PathBuf,
+    protocol: u32,
+    max_restarts: u32,
+    slots: Vec<Slot>,
+    /// Workers restarted after a crash.
+    pub(crate) restarts: u32,
+}
+
+impl WorkerPool {
+    /// Starts `n` workers of the run in `dir`, announcing `protocol`.
+    pub(crate) fn start(dir: &Path, n: usize, protocol: u32, max_restarts: u32) -> Result<Self> {
+        let mut pool = Self { dir: dir.to_owned(), protocol, max_restarts, slots: Vec::with_capacity(n), restarts: 0 };
+        for i in 0..n {
+            let child = spawn(&pool.args(i, 1), false)?;
+            pool.slots.push(Slot { child: Some(child), incarnation: 1, restarts: 0 });
+        }
+        Ok(pool)
+    }
+
+    fn args(&self, id: usize, incarnation: u64) -> Vec<String> {
+        vec![
+            "worker".into(),
+            "--run-dir".into(),
+            self.dir.display().to_string(),
+            "--worker-id".into(),
+            id.to_string(),
+            "--incarnation".into(),
+            incarnation.to_string(),
+            "--protocol-version".into(),
+            self.protocol.to_string(),
+        ]
+    }
+
+    /// Reaps exited workers and restarts crashed ones. A worker that exits cleanly, or any exit
+    /// once `run_over`, ends its slot; so does a protocol refusal or too many restarts.
+    pub(crate) fn check(&mut self, run_over: bool) -> Result<()> {
+        for i in 0..self.slots.len() {
+            let slot = &mut self.slots[i];
+            let Some(child) = slot.child.as_mut() else { continue };
+            let Some(s) = child.try_wait()? else { continue };
+            if s.success() || run_over {
+                // It saw the end of the run.
+                slot.child = None;
+            } else if s.code() == Some(EXIT_PROTOCOL as i32) {
+                eprintln!("worker {i} refused the run (protocol version mismatch); not restarting it");
+                slot.child = None;
+            } else if slot.restarts >= self.max_restarts {
+                eprintln!(
+                    "worker {i} exited ({}) and has been restarted {} times already; giving up on it",
+                    describe(&s),
+                    slot.restarts
+                );
+                slot.child = None;
+            } else {
+                slot.restarts += 1;
+                slot.incarnation += 1;
+                self.restarts += 1;
+                eprintln!("worker {i} exited ({}); starting a replacement", describe(&s));
+                let incarnation = slot.incarnation;
+                self.slots[i].child = Some(spawn(&self.args(i, incarnation), false)?);
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether every slot has ended (the worker host's exit test).
+    #[cfg_attr(not(feature = "multi-host"), allow(dead_code))]
+    pub(crate) fn all_stopped(&self) -> bool {
+        self.slots.iter().all(|s| s.child.is_none())
+    }
+
+    /// The workers still running.
+    pub(crate) fn running(&mut self) -> Vec<&mut Child> {
+        self.slots.iter_mut().filter_map(|s| s.child.as_mut()).collect()
+    }
 }
 
 /// Waits up to `grace` for `children` to exit, terminating then killing stragglers.
@@ -165,13 +231,11 @@ pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Re
         },
         None => None,
     };
-    let mut slots: Vec<Slot> = (0..run.workers)
-        .map(|i| Ok(Slot { child: Some(spawn(&worker_args(l, i, 1), false)?), incarnation: 1, restarts: 0 }))
-        .collect::<Result<_>>()?;
+    let mut workers = WorkerPool::start(&l.dir, run.workers, l.worker_protocol, l.max_restarts)?;
 
     let status = loop {
         if node.wait(Duration::from_millis(25)).is_err() {
-            let mut all: Vec<&mut Child> = slots.iter_mut().filter_map(|s| s.child.as_mut()).collect();
+            let mut all = workers.running();
             all.push(&mut learner);
             stop_all(&mut all, Duration::from_secs(5));
             node.try_cleanup_dead_nodes();
@@ -190,36 +254,13 @@ pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Re
         if let Some(b) = bridge.as_mut()
             && let Some(e) = b.failed()
         {
-            let mut all: Vec<&mut Child> = slots.iter_mut().filter_map(|s| s.child.as_mut()).collect();
+            let mut all = workers.running();
             all.push(&mut learner);
             stop_all(&mut all, Duration::from_secs(5));
             node.try_cleanup_dead_nodes();
             bail!("the multi-host bridge failed: {e}");
         }
-        for (i, slot) in slots.iter_mut().enumerate() {
-            let Some(child) = slot.child.as_mut() else { continue };
-            let Some(s) = child.try_wait()? else { continue };
-            if s.success() {
-                // It saw the end of the run.
-                slot.child = None;
-            } else if s.code() == Some(EXIT_PROTOCOL as i32) {
-                eprintln!("worker {i} refused the run (protocol version mismatch); not restarting it");
-                slot.child = None;
-            } else if slot.restarts >= l.max_restarts {
-                eprintln!(
-                    "worker {i} exited ({}) and has been restarted {} times already; giving up on it",
-                    describe(&s),
-                    slot.restarts
-                );
-                slot.child = None;
-            } else {
-                slot.restarts += 1;
-                slot.incarnation += 1;
-                out.restarts += 1;
-                eprintln!("worker {i} exited ({}); starting a replacement", describe(&s));
-                slot.child = Some(spawn(&worker_args(l, i, slot.incarnation), false)?);
-            }
-        }
+        workers.check(false)?;
     };
     while let Ok(line) = rx.recv_timeout(Duration::from_millis(200)) {
         if let Ok(v) = serde_json::from_str::<serde_json::Value>(&line) {
@@ -231,7 +272,8 @@ pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Re
         }
     }
     // Workers leave by themselves once the learner announces the end; give them a moment.
-    let mut rest: Vec<&mut Child> = slots.iter_mut().filter_map(|s| s.child.as_mut()).collect();
+    out.restarts = workers.restarts;
+    let mut rest = workers.running();
     let grace = Instant::now();
     while grace.elapsed() < Duration::from_secs(2) && rest.iter_mut().any(|c| c.try_wait().ok().flatten().is_none()) {
         std::thread::sleep(Duration::from_millis(20));

@@ -7,7 +7,7 @@ use envpg_core::ResultFile;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{Drawn, Figure, colour, grid, save, text};
+use super::{Drawn, Figure, colour, draw_legend, grid, save, text};
 use crate::ReportError;
 use crate::stats::{mean, moving_average};
 
@@ -110,13 +110,7 @@ impl Figure for GradNorm<'_> {
                 .label(label)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
         }
-        chart
-            .configure_series_labels()
-            .label_font(text(13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()?;
+        draw_legend(&mut chart, 13)?;
         Ok(())
     }
 }
@@ -222,13 +216,7 @@ where
             .label(format!("oracle, best J = {j:.3}"))
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(2)));
     }
-    chart
-        .configure_series_labels()
-        .label_font(text(11))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()?;
+    draw_legend(&mut chart, 11)?;
     Ok(())
 }
 

@@ -6,7 +6,7 @@ use envpg_core::ResultFile;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{Drawn, Figure, Panel, colour, grid, save, text};
+use super::{Drawn, Figure, Panel, colour, draw_legend, grid, save, text};
 use crate::ReportError;
 
 const PANEL: u32 = 520;
@@ -238,13 +238,7 @@ where
             .label("oracle design")
             .legend(|(x, y)| Cross::new((x + 8, y), 5, BLACK.stroke_width(2)));
     }
-    chart
-        .configure_series_labels()
-        .label_font(text(11))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()?;
+    draw_legend(&mut chart, 11)?;
     Ok(())
 }
 

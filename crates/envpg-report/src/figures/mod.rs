@@ -34,6 +34,24 @@ use crate::font;
 /// What a drawing step returns: plotters' errors differ per backend, so they are boxed.
 pub(crate) type Drawn = Result<(), Box<dyn Error>>;
 
+/// Draws the legend of `chart` the same way in every figure: upper right, on a translucent
+/// white box, labels of `size` px.
+pub(crate) fn draw_legend<'a, DB, CT>(chart: &mut ChartContext<'a, DB, CT>, size: u32) -> Drawn
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    CT: CoordTranslate,
+{
+    chart
+        .configure_series_labels()
+        .label_font(text(size))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()?;
+    Ok(())
+}
+
 /// A figure that can be drawn on any plotters backend.
 pub(crate) trait Figure {
     /// Pixel size.

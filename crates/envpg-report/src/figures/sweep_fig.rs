@@ -6,7 +6,7 @@ use envpg_ac::study::EstimatorStats;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{Drawn, Figure, colour, save, text};
+use super::{Drawn, Figure, colour, draw_legend, save, text};
 use crate::ReportError;
 use crate::stats::{mean, std};
 use crate::sweep::{KINDS, SweepRow, kind_name};
@@ -137,13 +137,7 @@ impl Figure for Sweep<'_> {
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
                 chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled())))?;
             }
-            chart
-                .configure_series_labels()
-                .label_font(text(12))
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK.mix(0.4))
-                .position(SeriesLabelPosition::UpperRight)
-                .draw()?;
+            draw_legend(&mut chart, 12)?;
         }
         Ok(())
     }
