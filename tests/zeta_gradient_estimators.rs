@@ -27,6 +27,21 @@ fn estimates_point_the_way_of_the_exact_gradient() {
     }
     let var = |k: ZetaEstimator| study.estimators.iter().find(|e| e.estimator == k).unwrap().variance;
     assert!(var(ZetaEstimator::Baseline) < var(ZetaEstimator::Sampled), "the baseline should reduce the variance");
+
+    // The critic audit splits the fixed-policy gradient by state: its exact parts add up to it,
+    // and the trained critic's version points the same way.
+    let audit = study.critic.as_ref().expect("a soft policy terminates, so the audit exists");
+    let (f, g) = (&audit.fixed_states, &audit.design_states);
+    for (c, want) in study.exact_fixed_policy.iter().enumerate() {
+        let got = f.exact[c] + g.exact[c];
+        assert!((got - want).abs() < 1e-9 * (1.0 + want.abs()), "component {c}: {got} vs {want}");
+    }
+    let critic: Vec<f64> = f.critic.iter().zip(&g.critic).map(|(a, b)| a + b).collect();
+    let dot: f64 = critic.iter().zip(&study.exact_fixed_policy).map(|(a, b)| a * b).sum();
+    let norm = |x: &[f64]| x.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let cos = dot / (norm(&critic) * norm(&study.exact_fixed_policy));
+    assert!(cos > 0.9, "the critic's fixed-policy gradient has cosine {cos} with the exact one");
+    assert!(audit.value_rmse.is_finite() && audit.value_rmse >= 0.0);
 }
 
 #[test]

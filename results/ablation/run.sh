@@ -1,6 +1,6 @@
 #!/bin/bash
 # Ablation of the `uav` preset: each change of Algorithm 1 reverted alone (to the paper's form),
-# κ ∈ {1, 0.85}, seeds 1..3, oracle best of 4 restarts. About 8 minutes on 2 cores.
+# κ ∈ {1, 0.85}, seeds 1..3, oracle best of 4 restarts. About 14 minutes on 2 cores.
 # Run from the repository root: bash results/ablation/run.sh
 set -euo pipefail
 declare -A CH=(
@@ -9,6 +9,7 @@ declare -A CH=(
   [no-explore]="--set explore_episodes=0"
   [critic-init-default]="--set critic_init=default"
   [zeta-input-absolute]="--set zeta_input=absolute"
+  [zeta-input-centered]="--set zeta_input=centered"
   [no-clip-no-average]="--set zeta_clip=0 --set zeta_average=0"
   [no-relocate]="--set relocate_every=0"
   [no-loop-backoff]="--set loop_tolerance=1.0"

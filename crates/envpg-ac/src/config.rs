@@ -165,7 +165,7 @@ impl Default for AcConfig {
             episode_cap: 25,
             sigma: 0.3,
             hidden: vec![128],
-            zeta_input: crate::features::ZetaInput::Centered,
+            zeta_input: crate::features::ZetaInput::Routed,
             critic_lr: 1e-3,
             critic_steps: 2,
             batch: 256,

@@ -69,7 +69,7 @@ mod tests {
             Instance { name: "t".into(), n_uav: 3, users: vec![[0.0, 0.0], [2.0, 1.0], [1.0, 3.0]], dest: [4.0, 3.0] };
         let net = UavNetwork::new(inst, 0.9, 100.0).unwrap();
         let zeta = [1.0, 0.5, 2.5, 1.5, 3.0, 2.0];
-        for input in [ZetaInput::Centered, ZetaInput::Absolute] {
+        for input in [ZetaInput::Centered, ZetaInput::Absolute, ZetaInput::Routed] {
             let f = Features::new(&net, input, 0.3).centered(&[0.9, 0.6, 2.4, 1.4, 3.1, 2.1]);
             let sets = ActionSets::new(&net);
             let spec = MlpSpec { onehot: f.onehot(), dense: f.dense_dim(), hidden: vec![16] };

@@ -12,6 +12,11 @@
 //! its weights as extra biases; as the critic's level moves those weights grow and show up as a
 //! large, state-independent ∂Q/∂ζ that drags unused UAVs away. Centred, the block is the
 //! zero-mean perturbation, whose weights can only learn how Q actually varies with ζ.
+//!
+//! Routed ([`ZetaInput::Routed`], the `uav` preset's choice), the centred block is written into
+//! one slot per action and one per source state (each UAV, and one for all users) instead of
+//! one block shared by every pair, so that the slope one pair needs does not leak into the
+//! others; the block is then mostly zeros, which the MLP's first layer skips.
 
 use envpg_core::Observable;
 
@@ -28,6 +33,12 @@ pub enum ZetaInput {
     Centered,
     /// `(ζ − c)/L`: the absolute design.
     Absolute,
+    /// The centred block routed into per-action and per-source slots: `(ζ − ζ_k)/L` written
+    /// into the slot of the pair's action and into the slot of its state's UAV (one shared
+    /// slot for the fixed states), zeros elsewhere. A single centred block is shared by every
+    /// pair, so the slope one pair needs leaks into all others; routed, it is shared only by
+    /// pairs with the same action or the same source.
+    Routed,
 }
 
 /// Feature map of one environment.
@@ -95,7 +106,17 @@ impl Features {
     }
 
     fn block(&self) -> usize {
-        if self.zeta_input == ZetaInput::None { 0 } else { self.d }
+        match self.zeta_input {
+            ZetaInput::None => 0,
+            ZetaInput::Centered | ZetaInput::Absolute => self.d,
+            ZetaInput::Routed => self.d * (self.n_actions + self.d / 2 + 1),
+        }
+    }
+
+    /// The two slots of a routed block that `(s, a)` writes: its action's, and its source's.
+    fn slots(&self, s: usize, a: usize) -> [usize; 2] {
+        let src = self.zidx[s].map_or(self.d / 2, |i| i / 2);
+        [a, self.n_actions + src]
     }
 
     /// Sets the centre of a centred ζ-block: the current design ζ_k.
@@ -159,6 +180,14 @@ impl Features {
                     out[GEOMETRY + i] = ((zeta[i] - c[i % 2]) / self.zeta_scale) as f32;
                 }
             }
+            ZetaInput::Routed => {
+                out[GEOMETRY..GEOMETRY + self.block()].fill(0.0);
+                for slot in self.slots(s, a) {
+                    for i in 0..self.d {
+                        out[GEOMETRY + slot * self.d + i] = ((zeta[i] - self.zeta_center[i]) / self.zeta_scale) as f32;
+                    }
+                }
+            }
         }
     }
 
@@ -178,8 +207,16 @@ impl Features {
             out[i] += (g(2) + g(4)) / l + dq[0];
             out[i + 1] += (g(3) + g(5)) / l + dq[1];
         }
-        for i in 0..self.block() {
-            out[i] += g(GEOMETRY + i) / self.zeta_scale;
+        if self.zeta_input == ZetaInput::Routed {
+            for slot in self.slots(s, a) {
+                for i in 0..self.d {
+                    out[i] += g(GEOMETRY + slot * self.d + i) / self.zeta_scale;
+                }
+            }
+        } else {
+            for i in 0..self.block() {
+                out[i] += g(GEOMETRY + i) / self.zeta_scale;
+            }
         }
     }
 }
@@ -193,7 +230,7 @@ mod tests {
     fn chain_rule_matches_central_differences() {
         let inst = Instance { name: "t".into(), n_uav: 3, users: vec![[0.0, 0.0], [2.0, 1.0]], dest: [4.0, 3.0] };
         let net = UavNetwork::new(inst, 1.0, 100.0).unwrap();
-        for input in [ZetaInput::None, ZetaInput::Centered, ZetaInput::Absolute] {
+        for input in [ZetaInput::None, ZetaInput::Centered, ZetaInput::Absolute, ZetaInput::Routed] {
             let mut f = Features::new(&net, input, 0.3);
             f.set_center(&[0.9, 0.4, 2.4, 1.6, 3.1, 1.9]);
             let zeta = [1.0, 0.5, 2.5, 1.5, 3.0, 2.0];

@@ -694,6 +694,26 @@ impl Learner {
         self.zeta_gradient_with(on, self.cfg.zeta_estimator)
     }
 
+    /// `Σ w · ∇ζ Q_φ(s, a, ζ_k)` over the given `(s, a, w)`: weighted by exact visits it is the
+    /// critic's version of the fixed-policy gradient, free of sampling noise (the critic audit).
+    pub fn critic_zeta_gradient(&mut self, pairs: &[(usize, usize, f64)]) -> Vec<f64> {
+        let mut cols = Columns::default();
+        for &(s, a, _) in pairs {
+            cols.push(&self.features, s, a, &self.zeta, 0);
+        }
+        // The forward pass keeps the activations that backprop reads.
+        let mut q = Vec::new();
+        self.critic.eval(&cols, &mut q);
+        let mut di = Vec::new();
+        self.critic.backprop(&cols, &vec![1.0f32; cols.len()], None, Some(&mut di));
+        let dense = cols.dense_dim();
+        let mut g = vec![0.0; self.zeta.len()];
+        for (c, &(s, a, w)) in pairs.iter().enumerate() {
+            self.features.chain(s, a, &self.zeta, &di[c * dense..(c + 1) * dense], w, &mut g);
+        }
+        g
+    }
+
     /// [`Learner::zeta_gradient`] with an explicit estimator (for variance studies).
     pub fn zeta_gradient_with(&mut self, on: &[&Episode], estimator: ZetaEstimator) -> Vec<f64> {
         zeta_gradient(&mut self.actor, &mut self.critic, &self.features, &self.sets, &self.zeta, on, estimator)

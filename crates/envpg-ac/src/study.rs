@@ -3,8 +3,10 @@
 //! direction with the exact gradient of J_H for the same policy (computed from the model, for
 //! reporting only).
 
-use envpg_core::{Streams, UavNetwork};
-use envpg_model::{Snapshot, SoftSolution, corollary_gradient, evaluate, theorem_gradient};
+use envpg_core::{Observable, Streams, UavNetwork};
+use envpg_model::{
+    Snapshot, SoftSolution, accumulate_local, corollary_gradient, evaluate, mu_dense, theorem_gradient, visits,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::config::ZetaEstimator;
@@ -45,6 +47,34 @@ pub struct Study {
     pub exact_fixed_policy: Vec<f64>,
     /// Per estimator.
     pub estimators: Vec<EstimatorStats>,
+    /// The critic's part of the estimators' error, free of sampling noise.
+    #[serde(default)]
+    pub critic: Option<CriticAudit>,
+}
+
+/// The critic audited against the model at the frozen point: for a group of state–action
+/// pairs, `Σ ρ(s)π(a|s) ∇ζ Q(s, a, ζ)` with the exact visits ρ of the frozen policy, once with
+/// the exact Q̄ (V frozen: the fixed-policy gradient of the theorem) and once with the critic's
+/// Q_φ. Their difference is what the critic alone contributes to the estimators' bias.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct AuditPart {
+    /// With the exact Q̄.
+    pub exact: Vec<f64>,
+    /// With the critic Q_φ.
+    pub critic: Vec<f64>,
+    /// ‖critic − exact‖/‖exact‖.
+    pub rel_error: f64,
+}
+
+/// [`AuditPart`]s by where the pair's state sits, and the critic's value error.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CriticAudit {
+    /// Pairs at states with a fixed position (the users).
+    pub fixed_states: AuditPart,
+    /// Pairs at states whose position is part of ζ (the UAVs).
+    pub design_states: AuditPart,
+    /// Visit-weighted RMS error of Q_φ(s, a, ζ) against the exact soft Q of the frozen policy.
+    pub value_rmse: f64,
 }
 
 fn cos(a: &[f64], b: &[f64]) -> f64 {
@@ -108,7 +138,60 @@ pub fn estimator_study(spec: &RunSpec, train: usize, samples: usize) -> Result<S
             }
         })
         .collect();
-    Ok(Study { trained: train, samples, exact, exact_fixed_policy: exact_fixed, estimators })
+    let critic = critic_audit(&net, &mut learner, &zeta, alpha);
+    Ok(Study { trained: train, samples, exact, exact_fixed_policy: exact_fixed, estimators, critic })
+}
+
+/// The [`CriticAudit`] of `learner` at its design `zeta` (`None` if the frozen policy does not
+/// terminate, so that visits are undefined).
+pub fn critic_audit(net: &UavNetwork, learner: &mut Learner, zeta: &[f64], alpha: f64) -> Option<CriticAudit> {
+    let snap = Snapshot::build(net, zeta);
+    let pi = learner.policy_table().full().to_vec();
+    let v = evaluate(&snap, &pi, alpha).ok()?;
+    let rho = visits(&snap, &pi, &mu_dense(&snap)).ok()?;
+    let states = snap.pair_states();
+    let weight = |sa: usize| rho[states[sa]] * pi[sa];
+    let q_exact = |sa: usize| -> f64 {
+        let soft = if pi[sa] > 0.0 { alpha * pi[sa].ln() } else { 0.0 };
+        snap.outs(sa).map(|o| snap.prob[o] * (snap.cost[o] + snap.gamma * v.v[snap.next[o]])).sum::<f64>() + soft
+    };
+    let part = |learner: &mut Learner, design: bool| {
+        let w: Vec<f64> = (0..snap.n_pairs())
+            .map(|sa| if net.zeta_index(states[sa]).is_some() == design { weight(sa) } else { 0.0 })
+            .collect();
+        let mut u = vec![0.0; snap.next.len()];
+        for sa in 0..snap.n_pairs() {
+            for o in snap.outs(sa) {
+                u[o] = w[sa] * v.v[snap.next[o]];
+            }
+        }
+        let mut exact = vec![0.0; zeta.len()];
+        accumulate_local(net, zeta, &snap, &w, &u, &mut exact);
+        let pairs: Vec<(usize, usize, f64)> =
+            (0..snap.n_pairs()).filter(|&sa| w[sa] > 0.0).map(|sa| (states[sa], snap.sa_action[sa], w[sa])).collect();
+        let critic = learner.critic_zeta_gradient(&pairs);
+        let norm = |x: &[f64]| x.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let diff: Vec<f64> = critic.iter().zip(&exact).map(|(a, b)| a - b).collect();
+        AuditPart { rel_error: norm(&diff) / norm(&exact).max(1e-300), exact, critic }
+    };
+    let fixed_states = part(learner, false);
+    let design_states = part(learner, true);
+    let (mut sq, mut total) = (0.0, 0.0);
+    for s in 0..snap.n_states {
+        let pairs = snap.sas(s);
+        if pairs.is_empty() || rho[s] == 0.0 {
+            continue;
+        }
+        let q = learner.q_values(s, zeta);
+        let acts = learner.action_sets().of(s).to_vec();
+        for sa in pairs {
+            let Some(i) = acts.iter().position(|&a| a == snap.sa_action[sa]) else { continue };
+            sq += weight(sa) * (q[i] - q_exact(sa)).powi(2);
+            total += weight(sa);
+        }
+    }
+    let value_rmse = (sq / total.max(1e-300)).sqrt();
+    Some(CriticAudit { fixed_states, design_states, value_rmse })
 }
 
 /// Exact ∇ζ J_H of the learner's current policy at `zeta`: all terms of the theorem, and with

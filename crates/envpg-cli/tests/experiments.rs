@@ -323,7 +323,17 @@ fn sweep_writes_a_table_and_a_figure_with_estimator_statistics() {
     let rows = read_csv(&out.join("sweep.csv"));
     assert_eq!(rows.iter().map(|r| r["value"].as_str()).collect::<Vec<_>>(), ["0.05", "0.3"]);
     for r in &rows {
-        for col in ["J", "variance", "rel_bias", "variance_sampled", "variance_baseline", "rel_bias_corollary"] {
+        for col in [
+            "J",
+            "variance",
+            "rel_bias",
+            "variance_sampled",
+            "variance_baseline",
+            "rel_bias_corollary",
+            "critic_error_fixed_states",
+            "critic_error_design_states",
+            "critic_value_rmse",
+        ] {
             let x: f64 = r[col].parse().unwrap_or_else(|_| panic!("{col} of {r:?}"));
             assert!(x.is_finite() && x >= 0.0, "{col} = {x}");
         }

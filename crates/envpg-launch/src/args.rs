@@ -53,7 +53,8 @@ pub struct TrainArgs {
     /// Hidden widths, e.g. `64,64`.
     #[arg(long, value_delimiter = ',')]
     pub hidden: Option<Vec<usize>>,
-    /// How ζ itself enters the networks: `centered` ((ζ − ζ_k)/L), `absolute`, `none`.
+    /// How ζ itself enters the networks: `routed` (the `uav` preset: (ζ − ζ_k)/L in a slot of the
+    /// pair's action and one of its state), `centered` ((ζ − ζ_k)/L), `absolute`, `none`.
     #[arg(long, value_enum)]
     pub zeta_input: Option<ZetaInputArg>,
     /// Critic learning rate.
@@ -140,6 +141,8 @@ pub enum ZetaInputArg {
     Centered,
     /// Absolute.
     Absolute,
+    /// Centred, routed into per-action and per-source slots.
+    Routed,
 }
 
 /// `--zeta-optimizer`.
@@ -202,6 +205,7 @@ impl TrainArgs {
                 ZetaInputArg::None => ZetaInput::None,
                 ZetaInputArg::Centered => ZetaInput::Centered,
                 ZetaInputArg::Absolute => ZetaInput::Absolute,
+                ZetaInputArg::Routed => ZetaInput::Routed,
             };
         }
         if let Some(v) = self.zeta_optimizer {

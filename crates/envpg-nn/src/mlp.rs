@@ -176,8 +176,21 @@ impl<T: Scalar> Mlp<T> {
         let dense = self.spec.dense;
         if dense > 0 {
             let lay = &self.layers[0];
-            let wd = Mat::new(&self.params[lay.w + h0 * self.onehot_total..lay.b], h0, dense);
-            gemm(T::one(), wd, Op::N, Mat::new(x.dense, dense, bsz), Op::N, T::zero(), &mut sig0, h0, bsz);
+            let w = &self.params[lay.w + h0 * self.onehot_total..lay.b];
+            if mostly_zero(x.dense) {
+                // Sparse inputs (slotted blocks): axpys over the non-zero entries only.
+                for s in 0..bsz {
+                    let z = &mut sig0[s * h0..(s + 1) * h0];
+                    for (i, &xi) in x.dense[s * dense..(s + 1) * dense].iter().enumerate() {
+                        if xi != T::zero() {
+                            axpy(xi, &w[i * h0..(i + 1) * h0], z);
+                        }
+                    }
+                }
+            } else {
+                let wd = Mat::new(w, h0, dense);
+                gemm(T::one(), wd, Op::N, Mat::new(x.dense, dense, bsz), Op::N, T::zero(), &mut sig0, h0, bsz);
+            }
         }
         let last = &self.layers[n_hidden];
         for s in 0..bsz {
@@ -254,7 +267,9 @@ impl<T: Scalar> Mlp<T> {
             z.iter_mut().for_each(|v| *v = T::zero());
             // W_d·x as axpys over one column held in L1.
             for (i, &xi) in x.dense[s * dense..(s + 1) * dense].iter().enumerate() {
-                axpy(xi, &wd[i * h..(i + 1) * h], &mut z);
+                if xi != T::zero() {
+                    axpy(xi, &wd[i * h..(i + 1) * h], &mut z);
+                }
             }
             self.layer0_sparse(x, s, &mut z);
             T::silu_inplace(&mut z, &mut a);
@@ -433,7 +448,16 @@ impl<T: Scalar> Mlp<T> {
                     axpy(T::one(), &dz[s * h..(s + 1) * h], &mut gw[c * h..(c + 1) * h]);
                 }
             }
-            if dense > 0 {
+            if dense > 0 && mostly_zero(x.dense) {
+                let gwd = &mut gw[h * self.onehot_total..];
+                for s in 0..bsz {
+                    for (i, &xi) in x.dense[s * dense..(s + 1) * dense].iter().enumerate() {
+                        if xi != T::zero() {
+                            axpy(xi, &dz[s * h..(s + 1) * h], &mut gwd[i * h..(i + 1) * h]);
+                        }
+                    }
+                }
+            } else if dense > 0 {
                 gemm(
                     T::one(),
                     Mat::new(&dz, h, bsz),
@@ -453,6 +477,14 @@ impl<T: Scalar> Mlp<T> {
             gemm(T::one(), wd, Op::T, Mat::new(&dz, h, bsz), Op::N, T::zero(), di, dense, bsz);
         }
     }
+}
+
+/// Whether more than three quarters of `x` are exactly zero: then the first layer skips the
+/// zero inputs instead of running a dense product (ζ-blocks routed into slots are mostly zeros;
+/// below that density the product is faster).
+#[inline(always)]
+fn mostly_zero<T: Scalar>(x: &[T]) -> bool {
+    4 * x.iter().filter(|&&v| v == T::zero()).count() > 3 * x.len()
 }
 
 /// `Σ a_i b_i`, accumulated in 8 interleaved partial sums so it vectorises (a single running
@@ -512,50 +544,45 @@ mod tests {
         out.iter().enumerate().map(|(s, o)| (s as f64 + 1.0) * o).sum()
     }
 
-    #[test]
-    fn parameter_gradient_matches_central_differences() {
-        let (mut m, onehot, dense, bsz) = net();
-        let x = Inputs { onehot: &onehot, dense: &dense, batch: bsz };
+    /// Checks the parameter and input gradients of `m` at these inputs against central
+    /// differences of [`loss`].
+    fn assert_gradients_match_central_differences(m: &mut Mlp<f64>, onehot: &[u32], dense: &[f64], bsz: usize) {
+        let x = Inputs { onehot, dense, batch: bsz };
         let mut cache = Cache::default();
         let mut out = vec![0.0; bsz];
         m.forward(&x, &mut cache, &mut out);
         let dout: Vec<f64> = (0..bsz).map(|s| s as f64 + 1.0).collect();
         let mut g = vec![0.0; m.n_params()];
-        m.backward(&x, &cache, &dout, Some(&mut g), None);
+        let mut di = vec![0.0; dense.len()];
+        m.backward(&x, &cache, &dout, Some(&mut g), Some(&mut di));
         let h = 1e-6;
         for i in 0..m.n_params() {
             let p0 = m.params()[i];
             m.params_mut()[i] = p0 + h;
-            let fp = loss(&m, &onehot, &dense, bsz);
+            let fp = loss(m, onehot, dense, bsz);
             m.params_mut()[i] = p0 - h;
-            let fm = loss(&m, &onehot, &dense, bsz);
+            let fm = loss(m, onehot, dense, bsz);
             m.params_mut()[i] = p0;
             let fd = (fp - fm) / (2.0 * h);
             assert!((fd - g[i]).abs() < 1e-7 * (1.0 + fd.abs()), "param {i}: fd {fd} vs {}", g[i]);
         }
-    }
-
-    #[test]
-    fn input_gradient_matches_central_differences() {
-        let (m, onehot, mut dense, bsz) = net();
-        let x = Inputs { onehot: &onehot, dense: &dense, batch: bsz };
-        let mut cache = Cache::default();
-        let mut out = vec![0.0; bsz];
-        m.forward(&x, &mut cache, &mut out);
-        let dout: Vec<f64> = (0..bsz).map(|s| s as f64 + 1.0).collect();
-        let mut di = vec![0.0; dense.len()];
-        m.backward(&x, &cache, &dout, None, Some(&mut di));
-        let h = 1e-6;
-        for i in 0..dense.len() {
-            let v = dense[i];
-            dense[i] = v + h;
-            let fp = loss(&m, &onehot, &dense, bsz);
-            dense[i] = v - h;
-            let fm = loss(&m, &onehot, &dense, bsz);
-            dense[i] = v;
+        let mut d = dense.to_vec();
+        for i in 0..d.len() {
+            let v = d[i];
+            d[i] = v + h;
+            let fp = loss(m, onehot, &d, bsz);
+            d[i] = v - h;
+            let fm = loss(m, onehot, &d, bsz);
+            d[i] = v;
             let fd = (fp - fm) / (2.0 * h);
             assert!((fd - di[i]).abs() < 1e-7 * (1.0 + fd.abs()), "input {i}: fd {fd} vs {}", di[i]);
         }
+    }
+
+    #[test]
+    fn parameter_and_input_gradients_match_central_differences() {
+        let (mut m, onehot, dense, bsz) = net();
+        assert_gradients_match_central_differences(&mut m, &onehot, &dense, bsz);
     }
 
     #[test]
@@ -576,6 +603,31 @@ mod tests {
         m2.forward(&Inputs { onehot: &[], dense: &dense2, batch: bsz }, &mut Cache::default(), &mut o2);
         for s in 0..bsz {
             assert!((o1[s] - o2[s]).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn mostly_zero_inputs_skip_zeros_and_keep_exact_gradients() {
+        // Inputs that are mostly zero take the skip-zeros path of layer 0 (forward and weight
+        // gradient); outputs, parameter and input gradients must match central differences.
+        for hidden in [vec![6], vec![6, 7]] {
+            let spec = MlpSpec { onehot: vec![5, 3], dense: 10, hidden };
+            let mut m = Mlp::<f64>::new(spec, &mut ChaCha12Rng::seed_from_u64(4), false);
+            let onehot = vec![0, 2, 4, 1, 2, 0];
+            let bsz = 3;
+            let mut dense = vec![0.0; 10 * bsz];
+            for (s, i) in [(0, 1), (0, 7), (1, 3), (2, 0), (2, 9)] {
+                dense[s * 10 + i] = 0.3 + 0.1 * (s + i) as f64;
+            }
+            assert!(mostly_zero(&dense));
+            let x = Inputs { onehot: &onehot, dense: &dense, batch: bsz };
+            let (mut out, mut out2) = (vec![0.0; bsz], vec![0.0; bsz]);
+            m.forward(&x, &mut Cache::default(), &mut out);
+            m.eval(&x, &mut out2);
+            for s in 0..bsz {
+                assert!((out[s] - out2[s]).abs() < 1e-12, "eval {} vs forward {}", out2[s], out[s]);
+            }
+            assert_gradients_match_central_differences(&mut m, &onehot, &dense, bsz);
         }
     }
 

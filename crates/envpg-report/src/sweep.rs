@@ -237,7 +237,7 @@ pub fn csv(plan: &SweepPlan, rows: &[SweepRow]) -> String {
         let n = kind_name(k);
         let _ = write!(s, ",variance_{n},rel_bias_{n}");
     }
-    s += ",file\n";
+    s += ",critic_error_fixed_states,critic_error_design_states,critic_value_rmse,file\n";
     let f = |x: Option<f64>| x.map_or(String::new(), |x| format!("{x}"));
     for r in rows {
         let own = r.of(r.estimator);
@@ -259,6 +259,14 @@ pub fn csv(plan: &SweepPlan, rows: &[SweepRow]) -> String {
             let e = r.of(k);
             let _ = write!(s, ",{},{}", f(e.map(|e| e.variance)), f(e.map(|e| e.rel_bias)));
         }
+        let audit = r.study.critic.as_ref();
+        let _ = write!(
+            s,
+            ",{},{},{}",
+            f(audit.map(|a| a.fixed_states.rel_error)),
+            f(audit.map(|a| a.design_states.rel_error)),
+            f(audit.map(|a| a.value_rmse))
+        );
         let _ = writeln!(s, ",{}", r.file);
     }
     s
@@ -284,7 +292,10 @@ pub fn markdown(plan: &SweepPlan, rows: &[SweepRow]) -> String {
         "Instance `{}`, κ = {}, η = {}, seeds {seeds}. The study freezes each run after {:.0}% of its \
          iterations and draws {} independent batches; variance is the trace of one estimate's \
          covariance, bias is ‖mean − exact‖/‖exact‖ against the exact ∇ζJ_H of the frozen policy \
-         (model, reporting only).  ",
+         (model, reporting only). The critic columns isolate the critic's share: \
+         Σ ρπ ∇ζQ_φ against Σ ρπ ∇ζQ̄ with the exact visits ρ, as ‖difference‖/‖exact‖ over the \
+         pairs at fixed-position states (users) and at design states (UAVs), and the \
+         visit-weighted RMS error of Q_φ's values.  ",
         plan.instance.name,
         plan.kappa,
         plan.eta,
@@ -296,10 +307,11 @@ pub fn markdown(plan: &SweepPlan, rows: &[SweepRow]) -> String {
     }
     let _ = writeln!(
         s,
-        "\n| {} | final J (mean ± std) | estimator | variance | rel. bias | cos(exact) | variance sampled | variance baseline |",
+        "\n| {} | final J (mean ± std) | estimator | variance | rel. bias | cos(exact) | variance sampled | \
+         variance baseline | critic error, users | critic error, UAVs | critic value RMSE |",
         plan.param
     );
-    s += "|---|---|---|---|---|---|---|---|\n";
+    s += "|---|---|---|---|---|---|---|---|---|---|---|\n";
     let m = |v: Vec<f64>| if v.is_empty() { "–".to_string() } else { format!("{:.4}", mean(&v)) };
     for (value, js, at) in per_value(&plan.values, rows) {
         let j = if js.is_empty() { "–".into() } else { format!("{:.3} ± {:.3}", mean(&js), std(&js)) };
@@ -308,14 +320,19 @@ pub fn markdown(plan: &SweepPlan, rows: &[SweepRow]) -> String {
         let own = |f: Stat| m(at.iter().filter_map(|r| r.of(r.estimator).map(f)).collect());
         let kind =
             |k, f: fn(&envpg_ac::study::EstimatorStats) -> f64| m(at.iter().filter_map(|r| r.of(k).map(f)).collect());
+        type Audit = fn(&envpg_ac::study::CriticAudit) -> f64;
+        let audit = |f: Audit| m(at.iter().filter_map(|r| r.study.critic.as_ref().map(f)).collect());
         let _ = writeln!(
             s,
-            "| {value} | {j} | {est} | {} | {} | {} | {} | {} |",
+            "| {value} | {j} | {est} | {} | {} | {} | {} | {} | {} | {} | {} |",
             own(|e| e.variance),
             own(|e| e.rel_bias),
             own(|e| e.cos_exact),
             kind(ZetaEstimator::Sampled, |e| e.variance),
             kind(ZetaEstimator::Baseline, |e| e.variance),
+            audit(|a| a.fixed_states.rel_error),
+            audit(|a| a.design_states.rel_error),
+            audit(|a| a.value_rmse),
         );
     }
     s
