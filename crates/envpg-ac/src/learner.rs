@@ -598,8 +598,7 @@ impl Learner {
         self.critic_opt.step(self.critic.mlp.params_mut(), &grad);
         self.critic_grad = grad;
         let tau = self.cfg.polyak as f32;
-        let src = self.critic.mlp.params().to_vec();
-        for (t, s) in self.target.mlp.params_mut().iter_mut().zip(&src) {
+        for (t, s) in self.target.mlp.params_mut().iter_mut().zip(self.critic.mlp.params()) {
             *t = tau * s + (1.0 - tau) * *t;
         }
         loss

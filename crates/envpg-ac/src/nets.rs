@@ -108,12 +108,21 @@ impl Columns {
 /// One network with its forward cache and a fixed output scale: the value it reports is
 /// `scale · mlp(x)`, so a critic whose returns are in the hundreds still works with O(1)
 /// network outputs (Adam moves each weight by at most ~lr per step).
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct Net {
     /// The MLP.
     pub mlp: Mlp<f32>,
     cache: Cache<f32>,
     scale: f32,
+}
+
+/// A clone copies the parameters and the scale, not the scratch activations of the last forward
+/// pass (every backprop follows its own forward; the activations of a large batch are megabytes
+/// that a per-iteration copy would only move around).
+impl Clone for Net {
+    fn clone(&self) -> Self {
+        Self { mlp: self.mlp.clone(), cache: Cache::default(), scale: self.scale }
+    }
 }
 
 impl Net {
