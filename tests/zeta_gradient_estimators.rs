@@ -5,9 +5,9 @@
 mod support;
 
 use envpg_ac::ZetaEstimator;
-use envpg_ac::learner::Batch;
 use envpg_ac::rollout::run_iteration;
 use envpg_ac::study::estimator_study;
+use envpg_ac::trainer::advance;
 use envpg_core::Streams;
 
 /// Trains with ζ frozen at its random start, where the true gradient is large.
@@ -50,13 +50,7 @@ fn baseline_and_sampled_estimators_agree_in_expectation() {
     let (net, _, mut learner) = spec.start().unwrap();
     let streams = Streams::new(spec.seed);
     let sets = learner.action_sets().clone();
-    for _ in 0..300 {
-        let k = learner.k();
-        let mut table = learner.policy_table();
-        let zeta = learner.zeta().to_vec();
-        let episodes = run_iteration(&net, &sets, &mut table, &zeta, &spec.config, &streams, k);
-        learner.update(&Batch { k, episodes }).unwrap();
-    }
+    advance(&net, &mut learner, &spec.config, &streams, 300).unwrap();
     // Paired differences on the same batches: E[∇ζ ln π · V(s)] = 0, so their mean is zero up
     // to its standard error.
     let zeta = learner.zeta().to_vec();

@@ -12,7 +12,7 @@ use std::hint::black_box;
 
 use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_main};
 use envpg_ac::rollout::run_iteration;
-use envpg_ac::trainer::RunSpec;
+use envpg_ac::trainer::{RunSpec, advance};
 use envpg_ac::{AcConfig, Batch};
 use envpg_core::{Instance, Streams};
 
@@ -22,13 +22,7 @@ fn bench(c: &mut Criterion) {
     let (net, _, mut learner) = spec.start().expect("valid spec");
     let streams = Streams::new(spec.seed);
     let sets = learner.action_sets().clone();
-    for _ in 0..500 {
-        let k = learner.k();
-        let mut table = learner.policy_table();
-        let zeta = learner.zeta().to_vec();
-        let episodes = run_iteration(&net, &sets, &mut table, &zeta, &config, &streams, k);
-        learner.update(&Batch { k, episodes }).expect("valid batch");
-    }
+    advance(&net, &mut learner, &config, &streams, 500).expect("valid batches");
     let k = learner.k();
     let zeta = learner.zeta().to_vec();
     let mut table = learner.policy_table();

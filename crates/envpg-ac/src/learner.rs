@@ -703,13 +703,9 @@ impl Learner {
         // The forward pass keeps the activations that backprop reads.
         let mut q = Vec::new();
         self.critic.eval(&cols, &mut q);
-        let mut di = Vec::new();
-        self.critic.backprop(&cols, &vec![1.0f32; cols.len()], None, Some(&mut di));
-        let dense = cols.dense_dim();
         let mut g = vec![0.0; self.zeta.len()];
-        for (c, &(s, a, w)) in pairs.iter().enumerate() {
-            self.features.chain(s, a, &self.zeta, &di[c * dense..(c + 1) * dense], w, &mut g);
-        }
+        let ones = vec![1.0f32; cols.len()];
+        add_input_gradient(&self.critic, &self.features, &cols, &ones, &self.zeta, |c| pairs[c].2, &mut g);
         g
     }
 
@@ -781,17 +777,32 @@ fn zeta_gradient(
         }
     }
     let mut g = vec![0.0; d];
-    let dense = cols.dense_dim();
     for (net, dout) in [(&*critic, &d_critic), (&*actor, &d_actor)] {
         // The corollary estimator has no actor term.
         if dout.iter().all(|&x| x == 0.0) {
             continue;
         }
-        let mut di = Vec::new();
-        net.backprop(&cols, dout, None, Some(&mut di));
-        for (c, &(s, a)) in cols.sa.iter().enumerate() {
-            features.chain(s as usize, a as usize, zeta, &di[c * dense..(c + 1) * dense], scale, &mut g);
-        }
+        add_input_gradient(net, features, &cols, dout, zeta, |_| scale, &mut g);
     }
     g
+}
+
+/// Adds `Σ_c weight(c) · (∂features_c/∂ζ)ᵀ ∇_x (dout · net)(x_c)` into `g`: the upstream
+/// gradient `dout` backpropagated to the dense inputs of each column, then through the feature
+/// map to ζ. `net` must hold the forward pass of `cols`.
+fn add_input_gradient(
+    net: &Net,
+    features: &Features,
+    cols: &Columns,
+    dout: &[f32],
+    zeta: &[f64],
+    weight: impl Fn(usize) -> f64,
+    g: &mut [f64],
+) {
+    let dense = cols.dense_dim();
+    let mut di = Vec::new();
+    net.backprop(cols, dout, None, Some(&mut di));
+    for (c, &(s, a)) in cols.sa.iter().enumerate() {
+        features.chain(s as usize, a as usize, zeta, &di[c * dense..(c + 1) * dense], weight(c), g);
+    }
 }

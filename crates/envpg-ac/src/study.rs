@@ -11,9 +11,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::ZetaEstimator;
 use crate::exact::ActorPolicy;
-use crate::learner::{Batch, Learner};
+use crate::learner::Learner;
 use crate::rollout::run_iteration;
-use crate::trainer::{RunSpec, TrainError};
+use crate::trainer::{RunSpec, TrainError, advance};
 
 /// Statistics of one estimator over independent batches.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -91,13 +91,7 @@ pub fn estimator_study(spec: &RunSpec, train: usize, samples: usize) -> Result<S
     let (net, _, mut learner) = spec.start()?;
     let streams = Streams::new(spec.seed);
     let sets = learner.action_sets().clone();
-    for _ in 0..train {
-        let k = learner.k();
-        let mut table = learner.policy_table();
-        let zeta = learner.zeta().to_vec();
-        let episodes = run_iteration(&net, &sets, &mut table, &zeta, &spec.config, &streams, k);
-        learner.update(&Batch { k, episodes })?;
-    }
+    advance(&net, &mut learner, &spec.config, &streams, train)?;
     let zeta = learner.zeta().to_vec();
     let alpha = learner.alpha();
     let (exact, exact_fixed) = exact_gradients(&net, &learner, &zeta, alpha);

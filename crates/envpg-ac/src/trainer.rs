@@ -255,6 +255,26 @@ pub fn rows(net: &UavNetwork, sets: &ActionSets, pairs: &[f64]) -> Vec<Vec<f64>>
         .collect()
 }
 
+/// Trains `learner` serially for `iterations` more iterations on `net` (each: the policy table
+/// at (θ_k, ζ_k), the iteration's episodes, one update), without recording anything.
+pub fn advance(
+    net: &UavNetwork,
+    learner: &mut Learner,
+    config: &AcConfig,
+    streams: &Streams,
+    iterations: usize,
+) -> Result<(), LearnerError> {
+    let sets = learner.action_sets().clone();
+    for _ in 0..iterations {
+        let k = learner.k();
+        let mut table = learner.policy_table();
+        let zeta = learner.zeta().to_vec();
+        let episodes = run_iteration(net, &sets, &mut table, &zeta, config, streams, k);
+        learner.update(&Batch { k, episodes })?;
+    }
+    Ok(())
+}
+
 /// Runs Algorithm 1 in this process: for each k, the policy table at (θ_k, ζ_k), all episodes
 /// of the iteration in index order, one learner update. `progress` sees every iteration and
 /// may stop the run by returning `false`.
