@@ -17,6 +17,8 @@ use envpg_ac::{AcConfig, Batch};
 use envpg_core::{Instance, Streams};
 
 fn bench(c: &mut Criterion) {
+    // As the binaries do: the learner's buffers are reused, not faulted in again every iteration.
+    envpg_ac::memory::retain_freed_memory();
     let config = AcConfig::bundled("uav").expect("bundled preset");
     let spec = RunSpec { instance: Instance::bundled(), kappa: 1.0, eta: 100.0, seed: 1, config: config.clone() };
     let (net, _, mut learner) = spec.start().expect("valid spec");

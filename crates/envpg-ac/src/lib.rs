@@ -10,6 +10,8 @@
 //!   `ParamMdp::step`, with one RNG stream per (seed, k, episode).
 //! - [`Learner`]: the learner algorithm, `update(&Batch) -> Stats`: critic TD steps with a
 //!   target critic, the EnvPG ζ-gradient estimate, the actor step, the ζ step, α decay.
+//! - [`memory::retain_freed_memory`]: the allocator setting that processes running a
+//!   [`Learner`] call first (speed only).
 //! - [`trainer::train`]: the serial (in-process) wiring of rollouts and learner, with history
 //!   and the result file.
 //!
@@ -21,6 +23,7 @@ pub mod config;
 pub mod exact;
 pub mod features;
 pub mod learner;
+pub mod memory;
 pub mod nets;
 pub mod rollout;
 pub mod study;

@@ -52,6 +52,7 @@ enum Command {
 
 fn main() -> ExitCode {
     args::init_tracing();
+    envpg_ac::memory::retain_freed_memory();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Oracle(a) => cmd_oracle::run(a),

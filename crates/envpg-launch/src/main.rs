@@ -159,6 +159,7 @@ fn main() -> ExitCode {
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn,zenoh=error,zenoh_transport=error"));
     let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).try_init();
     envpg_transport::quiet_iceoryx2_logs();
+    envpg_ac::memory::retain_freed_memory();
     let cli = Cli::parse();
     let result = match cli.role {
         Some(Role::Learner { run_dir, resume }) => roles::learner(&run_dir, resume),
