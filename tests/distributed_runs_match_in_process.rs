@@ -38,6 +38,8 @@ fn every_execution_mode_gives_the_same_run() {
             batch: 128,
             warmup: 20,
             eval_every: 20,
+            polish_iterations: 3,
+            polish_episodes: 64,
             ..Default::default()
         },
     };

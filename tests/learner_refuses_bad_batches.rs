@@ -1,5 +1,6 @@
 //! The learner checks every batch: wrong iteration, missing or reordered episodes and invalid
-//! transitions are refused with a clear error, and nothing changes.
+//! transitions are refused with a clear error, and nothing changes; an update that diverges is an
+//! error too, not a design of NaNs handed to the workers.
 
 mod support;
 
@@ -41,4 +42,22 @@ fn malformed_batches_are_refused_without_side_effects() {
     assert_eq!(learner.state(), before, "refused batches must not change the learner");
     learner.update(&Batch { k: 0, episodes }).unwrap();
     assert_eq!(learner.k(), 1);
+}
+
+#[test]
+fn a_diverged_update_is_an_error_naming_what_diverged_and_leaves_zeta_alone() {
+    let spec = support::tiny_spec(1.0, 1, 10);
+    let (net, _, mut learner) = spec.start().unwrap();
+    let sets = learner.action_sets().clone();
+    let mut table = learner.policy_table();
+    let zeta = learner.zeta().to_vec();
+    let episodes = run_iteration(&net, &sets, &mut table, &zeta, &spec.config, &Streams::new(1), 0);
+    // A critic whose weights have blown up (as with `critic_init=default` at κ = 0.85).
+    let mut st = learner.state();
+    st.critic.iter_mut().for_each(|w| *w = f32::NAN);
+    learner.restore(st).unwrap();
+    let e = learner.update(&Batch { k: 0, episodes }).unwrap_err();
+    assert_eq!(e, LearnerError::Diverged { k: 0, what: "the critic's TD loss" });
+    assert!(e.to_string().contains("diverged at iteration 0"), "{e}");
+    assert_eq!(learner.zeta(), zeta.as_slice());
 }

@@ -2,6 +2,7 @@
 # The narrow valley of J(ζ) at κ = 0.85 that the exact oracle finds and Algorithm 1 cannot
 # hold: start Algorithm 1 *at* the same-start oracle's design (seed 1), then score the optimal
 # policy's J along the segment from that design to where Algorithm 1 ends.
+# Measured with σ = 0.3 and no ζ polish (the defaults then), pinned below.
 # Run from the repository root after `envpg table` has filled results/table:
 #   bash results/cliff/run.sh        (about 30 s)
 set -euo pipefail
@@ -9,7 +10,7 @@ out=results/cliff
 oracle=results/table/runs/oracle-same-start_k0.85_s1.json
 zeta() { python3 -c "import json,sys; print(','.join(map(str, json.load(open(sys.argv[1]))['$2'])))" "$1"; }
 cargo build --release --quiet --bin envpg --bin envpg-launch
-./target/release/envpg-launch --in-process --kappa 0.85 --seed 1 --quiet \
+./target/release/envpg-launch --in-process --kappa 0.85 --seed 1 --quiet --sigma 0.3 --polish-iterations 0 \
   --zeta0 "$(zeta "$oracle" zeta)" --out "$out/from-oracle.json"
 a=$(zeta "$oracle" zeta)
 b=$(zeta "$out/from-oracle.json" zeta)

@@ -111,6 +111,10 @@ pub fn small_run(instance: &str, seed: u64, iterations: usize) -> Vec<String> {
         "20",
         "--eval-every",
         "20",
+        "--polish-iterations",
+        "3",
+        "--polish-episodes",
+        "64",
         "--quiet",
     ]
     .iter()

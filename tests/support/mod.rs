@@ -32,6 +32,8 @@ pub fn small_config(iterations: usize) -> AcConfig {
         batch: 128,
         warmup: 50,
         eval_every: 50,
+        polish_iterations: 3,
+        polish_episodes: 64,
         ..AcConfig::default()
     }
 }

@@ -92,6 +92,9 @@ pub struct AcConfig {
     pub episode_cap: usize,
     /// Standard deviation σ of the per-step perturbation ζ_pert = ζ_k + N(0, σ²I).
     pub sigma: f64,
+    /// σ at the last iteration as a fraction of `sigma`: σ shrinks geometrically over the
+    /// ζ phase (after the warm-up) from `sigma` to `sigma_anneal · sigma`; 1 keeps it constant.
+    pub sigma_anneal: f64,
     /// Hidden-layer widths of actor and critic.
     pub hidden: Vec<usize>,
     /// How ζ itself is fed to the networks.
@@ -150,6 +153,14 @@ pub struct AcConfig {
     pub alpha_final: f64,
     /// Initial design.
     pub zeta0: Zeta0,
+    /// Iterations of the ζ polish after the last iteration ([`crate::polish`]; 0: none).
+    pub polish_iterations: usize,
+    /// Episodes per sampled-cost estimate of the polish.
+    pub polish_episodes: usize,
+    /// Half-width h of the polish's central differences.
+    pub polish_h: f64,
+    /// First step length of the polish (steps are normalised).
+    pub polish_step: f64,
     /// Exact J of (ζ_k, greedy π) is recorded every this many iterations (reporting only).
     pub eval_every: usize,
 }
@@ -163,7 +174,8 @@ impl Default for AcConfig {
             explore_eps: 0.3,
             explore_start: 0.5,
             episode_cap: 25,
-            sigma: 0.3,
+            sigma: 0.2,
+            sigma_anneal: 1.0,
             hidden: vec![128],
             zeta_input: crate::features::ZetaInput::Routed,
             critic_lr: 1e-3,
@@ -189,6 +201,10 @@ impl Default for AcConfig {
             alpha_decay: 0.0,
             alpha_final: 0.01,
             zeta0: Zeta0::Random,
+            polish_iterations: 60,
+            polish_episodes: 2048,
+            polish_h: 0.005,
+            polish_step: 0.05,
             eval_every: 50,
         }
     }
@@ -262,6 +278,27 @@ impl AcConfig {
         ((1.0 - self.zeta_average) * self.iterations as f64).floor() as usize
     }
 
+    /// The polish settings.
+    pub fn polish(&self) -> crate::polish::PolishSettings {
+        crate::polish::PolishSettings {
+            iterations: self.polish_iterations,
+            episodes: self.polish_episodes,
+            h: self.polish_h,
+            step: self.polish_step,
+            episode_cap: self.episode_cap,
+        }
+    }
+
+    /// σ of the per-step perturbation at iteration k (see [`AcConfig::sigma_anneal`]).
+    pub fn sigma_at(&self, k: u64) -> f64 {
+        if self.sigma_anneal == 1.0 || k <= self.warmup as u64 {
+            return self.sigma;
+        }
+        let span = self.iterations.saturating_sub(1 + self.warmup).max(1) as f64;
+        let t = ((k - self.warmup as u64) as f64 / span).min(1.0);
+        self.sigma * self.sigma_anneal.powf(t)
+    }
+
     /// α at iteration k of the nominal schedule (before any loop back-off).
     pub fn alpha_at(&self, k: usize) -> f64 {
         self.alpha0 * self.upsilon().powi(k as i32)
@@ -289,6 +326,18 @@ impl AcConfig {
         }
         if !(self.sigma.is_finite() && self.sigma >= 0.0) {
             return err("sigma", format!("must be finite and >= 0, got {}", self.sigma));
+        }
+        if self.polish_iterations > 0 && self.polish_episodes == 0 {
+            return err("polish_episodes", "must be at least 1 when polish_iterations > 0".into());
+        }
+        if !finite_pos(self.polish_h) {
+            return err("polish_h", format!("must be finite and > 0, got {}", self.polish_h));
+        }
+        if !finite_pos(self.polish_step) {
+            return err("polish_step", format!("must be finite and > 0, got {}", self.polish_step));
+        }
+        if !(self.sigma_anneal > 0.0 && self.sigma_anneal <= 1.0) {
+            return err("sigma_anneal", format!("must be in (0, 1], got {}", self.sigma_anneal));
         }
         if self.hidden.is_empty() || self.hidden.contains(&0) {
             return err("hidden", format!("needs at least one layer of positive width, got {:?}", self.hidden));
@@ -406,6 +455,21 @@ mod tests {
         let c = AcConfig::default();
         c.validate().unwrap();
         assert!((c.alpha_at(c.iterations - 1) - c.alpha_final).abs() < 1e-12);
+    }
+
+    #[test]
+    fn sigma_is_constant_through_the_warm_up_then_shrinks_to_its_final_fraction() {
+        let c = AcConfig { iterations: 102, warmup: 1, sigma: 0.2, sigma_anneal: 0.25, ..Default::default() };
+        c.validate().unwrap();
+        assert_eq!((c.sigma_at(0), c.sigma_at(1)), (0.2, 0.2));
+        assert!((c.sigma_at(51) - 0.1).abs() < 1e-12, "geometric: halfway is σ·√0.25");
+        assert!((c.sigma_at(101) - 0.05).abs() < 1e-12);
+        assert!((c.sigma_at(500) - 0.05).abs() < 1e-12, "held after the last iteration");
+        assert_eq!(AcConfig::default().sigma_at(1999), AcConfig::default().sigma);
+        for bad in [0.0, 1.5, f64::NAN] {
+            let e = AcConfig { sigma_anneal: bad, ..Default::default() }.validate().unwrap_err();
+            assert_eq!(e.field, "sigma_anneal");
+        }
     }
 
     #[test]

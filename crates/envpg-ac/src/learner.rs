@@ -78,6 +78,15 @@ pub enum LearnerError {
         /// What is wrong.
         reason: String,
     },
+    /// The update produced a non-finite quantity: training has diverged, and ζ is left as it
+    /// was before this iteration.
+    #[error("Algorithm 1 diverged at iteration {k}: {what} is not finite")]
+    Diverged {
+        /// The iteration whose update diverged.
+        k: u64,
+        /// The quantity that is not finite.
+        what: &'static str,
+    },
 }
 
 /// Everything the learner carries between iterations (for checkpoints).
@@ -412,8 +421,14 @@ impl Learner {
             }
             job.map(|h| h.join().expect("ζ-gradient thread"))
         });
+        if !stats.critic_loss.is_finite() {
+            return Err(LearnerError::Diverged { k: self.k, what: "the critic's TD loss" });
+        }
         if let Some(g) = grad {
             let norm = g.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !norm.is_finite() {
+                return Err(LearnerError::Diverged { k: self.k, what: "the ζ-gradient estimate" });
+            }
             let clip = if cfg.zeta_clip > 0.0 && norm > cfg.zeta_clip { cfg.zeta_clip / norm } else { 1.0 };
             let lr = cfg.zeta_lr * cfg.zeta_lr_decay.powf((self.k - cfg.warmup as u64) as f64);
             match cfg.zeta_optimizer {

@@ -12,12 +12,15 @@
 //!   target critic, the EnvPG ζ-gradient estimate, the actor step, the ζ step, α decay.
 //! - [`memory::retain_freed_memory`]: the allocator setting that processes running a
 //!   [`Learner`] call first (speed only).
+//! - [`polish::polish`]: after the last iteration, ζ refined for the frozen greedy policy by
+//!   common-random-number differences of sampled episodes (model-free, optional).
 //! - [`trainer::train`]: the serial (in-process) wiring of rollouts and learner, with history
 //!   and the result file.
 //!
 //! ## Data flow
 //! learner state (θ_k, ζ_k, α_k) → [`PolicyTable`] → episodes (worker) → [`Batch`] ordered by
-//! episode index → [`Learner::update`] → (θ_{k+1}, φ_{k+1}, ζ_{k+1}, α_{k+1}).
+//! episode index → [`Learner::update`] → (θ_{k+1}, φ_{k+1}, ζ_{k+1}, α_{k+1}); after the last
+//! iteration, the ζ polish and the result file ([`trainer::Recorder::finish`]).
 
 pub mod config;
 pub mod exact;
@@ -25,6 +28,7 @@ pub mod features;
 pub mod learner;
 pub mod memory;
 pub mod nets;
+pub mod polish;
 pub mod rollout;
 pub mod study;
 pub mod table;

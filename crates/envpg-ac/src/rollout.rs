@@ -102,6 +102,7 @@ pub fn run_episode<E: ParamMdp>(
         env.sample_initial(&mut rng)
     };
     let mut zeta = vec![0.0; d];
+    let sigma = cfg.sigma_at(k);
     for _ in 0..cfg.episode_cap {
         let actions = sets.of(s);
         let k_a = if explore && rng.random::<f64>() < cfg.explore_eps {
@@ -112,7 +113,7 @@ pub fn run_episode<E: ParamMdp>(
         let a = actions[k_a];
         for (z, zk) in zeta.iter_mut().zip(zeta_k) {
             let n: f64 = rng.sample(StandardNormal);
-            *z = zk + cfg.sigma * n;
+            *z = zk + sigma * n;
         }
         let (s2, c) = env.step(s, a, &zeta, &mut rng);
         ep.s.push(s as u32);

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::AcConfig;
 use crate::learner::{Batch, Learner, LearnerError, Stats};
 use crate::nets::ActionSets;
+use crate::polish;
 use crate::rollout::run_iteration;
 use crate::table::PolicyTable;
 use crate::zeta0::initial_design;
@@ -187,11 +188,31 @@ impl Recorder {
 
     /// The result file of the finished run: final ζ, greedy policy with its exact J, the soft
     /// policy with its exact J_H at the final α.
+    ///
+    /// Both policies are the actor's at the reported ζ of Algorithm 1. With
+    /// `polish_iterations > 0` the design is then polished for the greedy one
+    /// ([`crate::polish`]), and both are scored at the polished ζ; `details.polish` keeps the
+    /// design before the polish.
     pub fn finish(&self, net: &UavNetwork, learner: &Learner, method: &str, details: serde_json::Value) -> ResultFile {
-        let zeta = learner.reported_zeta();
-        let mut table = PolicyTable::new(learner.actor(), learner.features(), learner.action_sets(), &zeta);
-        let snap = Snapshot::build(net, &zeta);
+        let before = learner.reported_zeta();
+        let mut table = PolicyTable::new(learner.actor(), learner.features(), learner.action_sets(), &before);
         let greedy = table.greedy();
+        let started = Instant::now();
+        let (zeta, polish) = if self.spec.config.polish_iterations > 0 {
+            let action: Vec<usize> = (0..self.sets.n_states())
+                .map(|s| {
+                    let acts = self.sets.of(s);
+                    acts.iter().zip(&greedy[self.sets.first(s)..]).find(|(_, p)| **p > 0.0).map_or(0, |(a, _)| *a)
+                })
+                .collect();
+            let (z, report) =
+                polish::polish(net, &action, &before, &self.spec.config.polish(), &Streams::new(self.spec.seed));
+            (z, Some(report))
+        } else {
+            (before, None)
+        };
+        let polish_seconds = started.elapsed().as_secs_f64();
+        let snap = Snapshot::build(net, &zeta);
         let (j, j_error) = match evaluate(&snap, &greedy, 0.0) {
             Ok(v) => (Some(v.j), None),
             Err(e) => (None, Some(e.to_string())),
@@ -199,9 +220,12 @@ impl Recorder {
         let alpha = learner.alpha();
         let soft = table.full().to_vec();
         let j_h = evaluate(&snap, &soft, alpha).ok().map(|v| v.j);
-        let seconds = self.seconds();
+        let seconds = self.seconds() + polish_seconds;
         let mut details = details;
         if let Some(obj) = details.as_object_mut() {
+            if let Some(report) = &polish {
+                obj.insert("polish".into(), serde_json::to_value(report).expect("report serializes"));
+            }
             obj.insert("transitions".into(), self.transitions.into());
             obj.insert("capped_episodes".into(), self.capped.into());
             obj.insert("transitions_per_s".into(), (self.transitions as f64 / seconds.max(1e-9)).into());

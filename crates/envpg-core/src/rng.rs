@@ -26,6 +26,8 @@ pub enum Purpose {
     Explore = 6,
     /// Anything else a caller needs, keyed by its own sub-index.
     Other = 7,
+    /// Episodes `(iteration, e)` of the ζ polish after the last iteration.
+    Polish = 8,
 }
 
 /// The generator behind every stream.

@@ -50,6 +50,22 @@ pub struct TrainArgs {
     /// σ of the per-step perturbation of ζ.
     #[arg(long)]
     pub sigma: Option<f64>,
+    /// Iterations of the ζ polish after training: ζ refined for the frozen greedy policy by
+    /// central differences of sampled episodes with common random numbers (0: none).
+    #[arg(long)]
+    pub polish_iterations: Option<usize>,
+    /// Episodes per sampled-cost estimate of the polish.
+    #[arg(long)]
+    pub polish_episodes: Option<usize>,
+    /// Half-width h of the polish's central differences.
+    #[arg(long)]
+    pub polish_h: Option<f64>,
+    /// First step length of the polish.
+    #[arg(long)]
+    pub polish_step: Option<f64>,
+    /// σ at the last iteration as a fraction of --sigma (geometric over the ζ phase; 1 = constant).
+    #[arg(long)]
+    pub sigma_anneal: Option<f64>,
     /// Hidden widths, e.g. `64,64`.
     #[arg(long, value_delimiter = ',')]
     pub hidden: Option<Vec<usize>>,
@@ -197,6 +213,7 @@ impl TrainArgs {
             ($($f:ident),*) => { $( if let Some(v) = self.$f.clone() { c.$f = v; } )* };
         }
         set!(iterations, episodes, explore_episodes, explore_eps, explore_start, episode_cap, sigma, hidden);
+        set!(sigma_anneal, polish_iterations, polish_episodes, polish_h, polish_step);
         set!(critic_lr, critic_steps, batch, polyak, actor_lr, actor_steps, warmup, zeta_lr, zeta_lr_decay);
         set!(zeta_clip, alpha0, alpha_decay, alpha_final, eval_every, relocate_every, relocate_below);
         set!(loop_tolerance, alpha_backoff, zeta_average);

@@ -5,7 +5,10 @@
 //! For each iteration k, [`run_learner`] broadcasts (θ_k, ζ_k, α_k), hands out the iteration's
 //! episode ids to the live workers, and blocks in a WaitSet until every episode has arrived. It
 //! then orders them by (kind, index) — so the update is the same whichever worker ran what —
-//! updates, records the history, and checkpoints on schedule.
+//! updates, records the history, and checkpoints on schedule. After the last iteration the
+//! workers are told to stop and the result file is written by the same
+//! [`envpg_ac::trainer::Recorder::finish`] as in one process, which also runs the ζ polish
+//! (`polish_iterations`) here, in the learner process, on two threads.
 //!
 //! Faults: a worker that stops heartbeating (or is replaced: a new incarnation in its slot, or
 //! says goodbye) loses its unfinished episodes to the others; late or duplicate episodes are

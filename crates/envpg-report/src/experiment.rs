@@ -415,14 +415,23 @@ fn preamble(plan: &TablePlan, runner: &dyn Alg1Runner, files: &[(Job, ResultFile
             plan.eta
         ),
         format!(
-            "Algorithm 1: {} iterations × {} episodes (+{} exploration), σ = {}, α {} → {}, estimator {:?}; {}.",
+            "Algorithm 1: {} iterations × {} episodes (+{} exploration), σ = {}, α {} → {}, estimator {:?}{}; {}.",
             c.iterations,
             c.episodes,
             c.explore_episodes,
-            c.sigma,
+            if c.sigma_anneal == 1.0 {
+                c.sigma.to_string()
+            } else {
+                format!("{} → {}", c.sigma, c.sigma * c.sigma_anneal)
+            },
             c.alpha0,
             c.alpha_final,
             c.zeta_estimator,
+            if c.polish_iterations > 0 {
+                format!(", then ζ polish: {} iterations × {} episodes", c.polish_iterations, c.polish_episodes)
+            } else {
+                String::new()
+            },
             runner.describe()
         ),
         format!(

@@ -314,7 +314,17 @@ pub fn markdown(plan: &SweepPlan, rows: &[SweepRow]) -> String {
     s += "|---|---|---|---|---|---|---|---|---|---|---|\n";
     let m = |v: Vec<f64>| if v.is_empty() { "–".to_string() } else { format!("{:.4}", mean(&v)) };
     for (value, js, at) in per_value(&plan.values, rows) {
-        let j = if js.is_empty() { "–".into() } else { format!("{:.3} ± {:.3}", mean(&js), std(&js)) };
+        // A run whose greedy policy never reaches the destination has J = ∞; leaving it out of
+        // the mean would flatter the value, so the mean is ∞ and the finite runs are shown apart.
+        let improper = at.len() - js.len();
+        let j = match (improper, js.is_empty()) {
+            (0, true) => "–".into(),
+            (0, false) => format!("{:.3} ± {:.3}", mean(&js), std(&js)),
+            (n, true) => format!("∞ ({n} of {n} runs improper)"),
+            (n, false) => {
+                format!("∞ ({n} of {} runs improper; others {:.3} ± {:.3})", at.len(), mean(&js), std(&js))
+            }
+        };
         let est = at.first().map_or("–", |r| kind_name(r.estimator));
         type Stat = fn(&envpg_ac::study::EstimatorStats) -> f64;
         let own = |f: Stat| m(at.iter().filter_map(|r| r.of(r.estimator).map(f)).collect());
@@ -341,4 +351,53 @@ pub fn markdown(plan: &SweepPlan, rows: &[SweepRow]) -> String {
 /// The files a sweep writes besides its runs.
 pub fn outputs(dir: &Path) -> Vec<PathBuf> {
     ["sweep.md", "sweep.csv", "sweep.svg", "sweep.png"].iter().map(|n| dir.join(n)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(value: &str, seed: u64, j: Option<f64>) -> SweepRow {
+        let study = Study {
+            trained: 1,
+            samples: 1,
+            exact: vec![],
+            exact_fixed_policy: vec![],
+            estimators: vec![],
+            critic: None,
+        };
+        SweepRow {
+            value: value.into(),
+            seed,
+            j,
+            j_h: j,
+            seconds: None,
+            estimator: ZetaEstimator::Corollary,
+            study,
+            file: String::new(),
+        }
+    }
+
+    #[test]
+    fn a_run_with_infinite_j_makes_the_mean_infinite_instead_of_being_dropped() {
+        let plan = SweepPlan {
+            instance: Instance::bundled(),
+            kappa: 1.0,
+            eta: 100.0,
+            seeds: vec![1, 2],
+            config: AcConfig::default(),
+            param: "sigma".into(),
+            values: vec!["0.1".into(), "0.3".into()],
+            study_at: 0.5,
+            study_samples: 1,
+            jobs: 1,
+            preamble: vec![],
+        };
+        let rows =
+            [row("0.1", 1, Some(10.0)), row("0.1", 2, None), row("0.3", 1, Some(10.0)), row("0.3", 2, Some(12.0))];
+        let md = markdown(&plan, &rows);
+        let line = |v: &str| md.lines().find(|l| l.starts_with(&format!("| {v} |"))).expect("row").to_owned();
+        assert!(line("0.1").contains("| ∞ (1 of 2 runs improper; others 10.000 ± 0.000) |"), "{md}");
+        assert!(line("0.3").contains("| 11.000 ± "), "{md}");
+    }
 }

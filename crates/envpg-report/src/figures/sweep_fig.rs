@@ -75,8 +75,14 @@ impl Figure for Sweep<'_> {
         };
         // (a) final J per seed and mean ± std.
         let js: Vec<Vec<f64>> = (0..n).map(|i| self.at(i).filter_map(|r| r.j).collect()).collect();
+        // Runs with an improper greedy policy (J = ∞) cannot be drawn; the caption counts them.
+        let improper = self.rows.iter().filter(|r| r.j.is_none()).count();
+        let caption = match improper {
+            0 => format!("Final J vs {}", self.param),
+            k => format!("Final J vs {} ({k} runs with J = ∞ not shown)", self.param),
+        };
         let mut chart = ChartBuilder::on(&areas[0])
-            .caption(format!("Final J vs {}", self.param), text(16))
+            .caption(caption, text(16))
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(56)
