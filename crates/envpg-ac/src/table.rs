@@ -78,24 +78,68 @@ impl<'a> PolicyTable<'a> {
         &self.probs
     }
 
+    /// Per state, the index among its valid actions of the most probable one (lowest index on
+    /// ties); `None` for a state without actions (terminal).
+    fn argmax_indices(&mut self) -> Vec<Option<usize>> {
+        self.full();
+        (0..self.sets.n_states())
+            .map(|s| {
+                let first = self.sets.first(s);
+                let p = &self.probs[first..first + self.sets.of(s).len()];
+                (!p.is_empty()).then(|| {
+                    let mut best = 0;
+                    for (i, &x) in p.iter().enumerate() {
+                        if x > p[best] {
+                            best = i;
+                        }
+                    }
+                    best
+                })
+            })
+            .collect()
+    }
+
     /// The most probable action of every state (lowest index on ties), one-hot per pair.
     pub fn greedy(&mut self) -> Vec<f64> {
-        self.full();
         let mut out = vec![0.0; self.probs.len()];
-        for s in 0..self.sets.n_states() {
-            let first = self.sets.first(s);
-            let p = &self.probs[first..first + self.sets.of(s).len()];
-            if p.is_empty() {
-                continue;
+        for (s, best) in self.argmax_indices().into_iter().enumerate() {
+            if let Some(i) = best {
+                out[self.sets.first(s) + i] = 1.0;
             }
-            let mut best = 0;
-            for (i, &x) in p.iter().enumerate() {
-                if x > p[best] {
-                    best = i;
-                }
-            }
-            out[first + best] = 1.0;
         }
         out
+    }
+
+    /// The same greedy policy as [`PolicyTable::greedy`], as one global action per state
+    /// (0 for states without actions, which never act).
+    pub fn greedy_actions(&mut self) -> Vec<usize> {
+        let idx = self.argmax_indices();
+        idx.into_iter().enumerate().map(|(s, best)| best.map_or(0, |i| self.sets.of(s)[i])).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use envpg_core::instance::{GenerateSpec, generate};
+    use envpg_core::{ParamMdp, UavNetwork};
+
+    use crate::{AcConfig, Learner};
+
+    #[test]
+    fn greedy_actions_name_the_one_hot_entries_of_the_greedy_policy() {
+        let spec =
+            GenerateSpec { name: "t".into(), n_users: 12, n_uav: 3, clusters: 2, side: 10.0, spread: 0.8, seed: 4 };
+        let net = UavNetwork::new(generate(&spec).unwrap(), 0.9, 100.0).unwrap();
+        let learner = Learner::new(&net, AcConfig { hidden: vec![8], ..Default::default() }, 2, vec![2.0; 6]);
+        let mut table = learner.policy_table();
+        let (one_hot, actions) = (table.greedy(), table.greedy_actions());
+        let sets = learner.action_sets();
+        for s in 0..net.n_states() {
+            let row = &one_hot[sets.first(s)..sets.first(s) + sets.of(s).len()];
+            match row.iter().position(|&p| p == 1.0) {
+                Some(i) => assert_eq!(actions[s], sets.of(s)[i], "state {s}"),
+                None => assert!(net.is_terminal(s) && actions[s] == 0, "state {s}"),
+            }
+        }
     }
 }

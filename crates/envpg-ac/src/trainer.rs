@@ -199,12 +199,7 @@ impl Recorder {
         let greedy = table.greedy();
         let started = Instant::now();
         let (zeta, polish) = if self.spec.config.polish_iterations > 0 {
-            let action: Vec<usize> = (0..self.sets.n_states())
-                .map(|s| {
-                    let acts = self.sets.of(s);
-                    acts.iter().zip(&greedy[self.sets.first(s)..]).find(|(_, p)| **p > 0.0).map_or(0, |(a, _)| *a)
-                })
-                .collect();
+            let action = table.greedy_actions();
             let (z, report) =
                 polish::polish(net, &action, &before, &self.spec.config.polish(), &Streams::new(self.spec.seed));
             (z, Some(report))
