@@ -40,6 +40,10 @@ fn every_execution_mode_gives_the_same_run() {
             eval_every: 20,
             polish_iterations: 3,
             polish_episodes: 64,
+            polish_routing: 1,
+            polish_routing_samples: 64,
+            polish_candidates: 2,
+            polish_screen: 2,
             ..Default::default()
         },
     };

@@ -1,10 +1,13 @@
 #!/bin/bash
 # Ablation of the `uav` preset: each change of Algorithm 1 reverted alone (to the paper's form),
-# κ ∈ {1, 0.85}, seeds 1..3, oracle best of 4 restarts. About 8 minutes on 2 cores.
+# κ ∈ {1, 0.85}, seeds 1..3, oracle best of 4 restarts. About 30 minutes on 2 cores.
 # Run from the repository root: bash results/ablation/run.sh
 set -euo pipefail
 declare -A CH=(
   [no-polish]="--set polish_iterations=0"
+  [polish-frozen-routing]="--set polish_routing=0"
+  [polish-one-start]="--set polish_candidates=1"
+  [polish-as-before]="--set polish_routing=0 --set polish_candidates=1 --set polish_iterations=60"
   [sigma-0.3]="--set sigma=0.3"
   [actor-pg]="--set actor_update=pg"
   [estimator-sampled]="--set zeta_estimator=sampled"

@@ -1,5 +1,5 @@
 #!/bin/bash
-# How far the polish goes towards the unsmoothed local optimum, κ = 0.85, seeds 1–6: for each
+# Where the polish ends against the unsmoothed local optimum, κ = 0.85, seeds 1–6: for each
 # seed, the design Algorithm 1 ends with before the polish (results/table-no-polish), the model's
 # local optimiser started there at α = 0.01 (exact gradients, for the report only), and the
 # polished design of the default run (results/table). J is the exact objective of each run's

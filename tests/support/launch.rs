@@ -115,6 +115,14 @@ pub fn small_run(instance: &str, seed: u64, iterations: usize) -> Vec<String> {
         "3",
         "--polish-episodes",
         "64",
+        "--polish-routing",
+        "1",
+        "--polish-routing-samples",
+        "64",
+        "--polish-candidates",
+        "2",
+        "--polish-screen",
+        "2",
         "--quiet",
     ]
     .iter()

@@ -34,6 +34,10 @@ pub fn small_config(iterations: usize) -> AcConfig {
         eval_every: 50,
         polish_iterations: 3,
         polish_episodes: 64,
+        polish_routing: 1,
+        polish_routing_samples: 64,
+        polish_candidates: 2,
+        polish_screen: 2,
         ..AcConfig::default()
     }
 }

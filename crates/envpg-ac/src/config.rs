@@ -65,8 +65,8 @@ pub enum CriticInit {
 pub enum Zeta0 {
     /// Uniform over the users' bounding box (stream `Zeta0` of the seed).
     Random,
-    /// From the observable user coordinates: k-means centres of the users, ordered along the
-    /// line to the destination, pulled part of the way towards it (no model involved).
+    /// From the observable coordinates: UAV j at fraction j/m of the way from the users'
+    /// centroid to the destination, a relay chain along that line (no model involved).
     Users,
     /// A given design.
     Given(Vec<f64>),
@@ -161,6 +161,20 @@ pub struct AcConfig {
     pub polish_h: f64,
     /// First step length of the polish (steps are normalised).
     pub polish_step: f64,
+    /// Rounds of sampled policy iteration on the polish's routing, spread over its iterations
+    /// (0: the routing stays the final actor's greedy policy).
+    pub polish_routing: usize,
+    /// One-step samples per (state, action), and rollouts per state, of a routing round.
+    pub polish_routing_samples: usize,
+    /// Starting designs of the polish: the design Algorithm 1 ends with and
+    /// `polish_candidates − 1` others around it (`polish_spread`), each with the actor's greedy
+    /// routing at that design; each is screened for `polish_screen` iterations, and the one
+    /// whose sampled cost is lowest is kept and polished (1: the final design only).
+    pub polish_candidates: usize,
+    /// Standard deviation of the other starts' offsets from the final design.
+    pub polish_spread: f64,
+    /// Screening iterations per start.
+    pub polish_screen: usize,
     /// Exact J of (ζ_k, greedy π) is recorded every this many iterations (reporting only).
     pub eval_every: usize,
 }
@@ -201,10 +215,15 @@ impl Default for AcConfig {
             alpha_decay: 0.0,
             alpha_final: 0.01,
             zeta0: Zeta0::Random,
-            polish_iterations: 60,
+            polish_iterations: 80,
             polish_episodes: 2048,
             polish_h: 0.005,
             polish_step: 0.05,
+            polish_routing: 8,
+            polish_routing_samples: 1024,
+            polish_candidates: 16,
+            polish_spread: 0.3,
+            polish_screen: 20,
             eval_every: 50,
         }
     }
@@ -286,6 +305,11 @@ impl AcConfig {
             h: self.polish_h,
             step: self.polish_step,
             episode_cap: self.episode_cap,
+            routing_rounds: self.polish_routing,
+            routing_samples: self.polish_routing_samples,
+            candidates: self.polish_candidates,
+            candidate_spread: self.polish_spread,
+            screen_iterations: self.polish_screen,
         }
     }
 
@@ -329,6 +353,18 @@ impl AcConfig {
         }
         if self.polish_iterations > 0 && self.polish_episodes == 0 {
             return err("polish_episodes", "must be at least 1 when polish_iterations > 0".into());
+        }
+        if self.polish_routing > 0 && self.polish_routing_samples == 0 {
+            return err("polish_routing_samples", "must be at least 1 when polish_routing > 0".into());
+        }
+        if !(1..=16).contains(&self.polish_candidates) {
+            return err("polish_candidates", format!("must be in 1..=16, got {}", self.polish_candidates));
+        }
+        if !(self.polish_spread.is_finite() && self.polish_spread >= 0.0) {
+            return err("polish_spread", format!("must be finite and >= 0, got {}", self.polish_spread));
+        }
+        if self.polish_candidates > 1 && self.polish_screen == 0 {
+            return err("polish_screen", "must be at least 1 when polish_candidates > 1".into());
         }
         if !finite_pos(self.polish_h) {
             return err("polish_h", format!("must be finite and > 0, got {}", self.polish_h));
@@ -514,8 +550,24 @@ mod tests {
             AcConfig { alpha0: -1.0, ..Default::default() },
             AcConfig { explore_eps: 1.5, ..Default::default() },
             AcConfig { polyak: 0.0, ..Default::default() },
+            AcConfig { polish_candidates: 0, ..Default::default() },
+            AcConfig { polish_spread: f64::NAN, ..Default::default() },
+            AcConfig { polish_screen: 0, ..Default::default() },
+            AcConfig { polish_routing_samples: 0, ..Default::default() },
         ];
         let fields: Vec<_> = bad.iter().map(|c| c.validate().unwrap_err().field).collect();
-        assert_eq!(fields, ["sigma", "alpha0", "explore_eps", "polyak"]);
+        assert_eq!(
+            fields,
+            [
+                "sigma",
+                "alpha0",
+                "explore_eps",
+                "polyak",
+                "polish_candidates",
+                "polish_spread",
+                "polish_screen",
+                "polish_routing_samples"
+            ]
+        );
     }
 }

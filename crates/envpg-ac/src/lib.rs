@@ -12,8 +12,9 @@
 //!   target critic, the EnvPG ζ-gradient estimate, the actor step, the ζ step, α decay.
 //! - [`memory::retain_freed_memory`]: the allocator setting that processes running a
 //!   [`Learner`] call first (speed only).
-//! - [`polish::polish`]: after the last iteration, ζ refined for the frozen greedy policy by
-//!   common-random-number differences of sampled episodes (model-free, optional).
+//! - [`polish::polish_candidates`]: after the last iteration, ζ refined for the greedy policy
+//!   by common-random-number differences of sampled episodes, the routing improved by sampled
+//!   policy iteration, from several starts of which the cheapest is kept (model-free, optional).
 //! - [`trainer::train`]: the serial (in-process) wiring of rollouts and learner, with history
 //!   and the result file.
 //!

@@ -54,6 +54,17 @@ impl ActionSets {
     pub fn terminal(&self, s: usize) -> bool {
         self.terminal[s]
     }
+    /// The deterministic policy taking `action[s]` in every state, one-hot per pair (states
+    /// whose entry is not one of their valid actions, such as terminal ones, get no mass).
+    pub fn one_hot(&self, action: &[usize]) -> Vec<f64> {
+        let mut out = vec![0.0; self.n_pairs()];
+        for (s, &a) in action.iter().enumerate().take(self.n_states()) {
+            if let Some(i) = self.of(s).iter().position(|&x| x == a) {
+                out[self.first(s) + i] = 1.0;
+            }
+        }
+        out
+    }
 }
 
 /// A batch of network columns.

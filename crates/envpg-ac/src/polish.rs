@@ -1,12 +1,13 @@
 //! The ζ polish: a short model-free refinement of the design after the last iteration of
-//! Algorithm 1, with the policy held fixed.
+//! Algorithm 1, for the actor's greedy routing (held fixed, or improved by sampled policy
+//! iteration along the way), from one or several starts.
 //!
 //! Why: Algorithm 1 steps the emulator at ζ_k + N(0, σ²I), so it optimises a design for a
 //! kernel smoothed over σ. Where the kernel switches over much shorter distances (off-target
 //! moves with η = 100 pick the nearest other target, and the nearest one changes within a few
 //! thousandths), the smoothed optimum sits a fraction of σ away from the unsmoothed one.
 //!
-//! How: the greedy policy of the final actor is frozen, and ζ descends the sampled cost
+//! How: with the routing (a deterministic policy) held fixed, ζ descends the sampled cost
 //! `Ĵ(ζ) = (1/E) Σ_e cost of episode e` by central differences with *common random numbers*:
 //! episode e draws its start and every transition from the same stream at ζ + h·e_i and
 //! ζ − h·e_i, so the difference sees only what ζ changes (costs, and the few draws that switch
@@ -14,11 +15,32 @@
 //! new design; the step grows after an acceptance and shrinks after a refusal. Every iteration
 //! draws new episodes (stream `Purpose::Polish`, keyed by iteration and episode).
 //!
+//! The routing (the frozen policy) can be improved along the way ([`PolishSettings::routing_rounds`]):
+//! a round of sampled policy iteration at the current design estimates V^π of every state
+//! the policy can move to by rollouts, then Q(s, a) = E[c + V^π(s')] of every valid action of
+//! every state from one-step samples (common random numbers across the actions of a state),
+//! and switches each state to its lowest-Q action. The new routing is kept only if the
+//! polish's episodes cost less under it. Everywhere the polish compares sampled costs, a
+//! sample with more than 1 in 1000 episodes at the length cap counts as looping and loses to
+//! any that does not: a loop between two close UAVs runs up little cost before the cap. Without it the polish stops where the old routing
+//! stops being the best one for the moved design; with it, design and routing approach a
+//! joint local optimum, as the model's local optimiser does.
+//!
+//! Several starts can be polished ([`polish_candidates`]): the design Algorithm 1 ends with
+//! and a few designs scattered around it, each with the actor's greedy routing at that design.
+//! Each gets a short screening polish; the one whose sampled cost (on episodes common to all)
+//! is lowest is kept and polished to the end. Design and routing together have local optima a
+//! few tenths apart, and a start from a neighbouring one is cheap to try.
+//!
 //! Model-free: the environment is touched only through [`ParamMdp::sample_initial`],
-//! [`ParamMdp::step`] and [`ParamMdp::is_terminal`]. It does need an emulator whose randomness
-//! the caller supplies (it replays a stream at two designs); Algorithm 1 itself does not.
+//! [`ParamMdp::step`], [`ParamMdp::valid_actions`] and [`ParamMdp::is_terminal`]. It does need
+//! an emulator whose randomness the caller supplies (it replays a stream at two designs) and,
+//! for the routing rounds, one that can be stepped from any state (as exploring starts are);
+//! Algorithm 1 itself needs neither.
 
 use envpg_core::{ParamMdp, Purpose, Streams};
+use rand::RngExt;
+use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 /// Settings of the polish (copied from [`crate::AcConfig`]).
@@ -34,6 +56,17 @@ pub struct PolishSettings {
     pub step: f64,
     /// Episode length cap.
     pub episode_cap: usize,
+    /// Rounds of sampled policy iteration on the routing, spread evenly over the iterations
+    /// (the first before iteration 0; 0: the routing stays frozen).
+    pub routing_rounds: usize,
+    /// One-step samples per (state, action), and rollouts per state for V^π, of a round.
+    pub routing_samples: usize,
+    /// Starting designs of [`polish_candidates`] (1: only the given design).
+    pub candidates: usize,
+    /// Standard deviation of the other starts' offsets from the given design.
+    pub candidate_spread: f64,
+    /// Screening iterations per start before the best is kept.
+    pub screen_iterations: usize,
 }
 
 /// What the polish did, recorded in the result file's `details.polish`.
@@ -51,6 +84,239 @@ pub struct PolishReport {
     pub j_estimate_after: f64,
     /// Environment steps taken.
     pub transitions: u64,
+    /// Routing rounds run.
+    #[serde(default)]
+    pub routing_rounds: usize,
+    /// Routing rounds whose new routing was kept.
+    #[serde(default)]
+    pub routing_accepted: usize,
+    /// States whose action changed, summed over the kept rounds.
+    #[serde(default)]
+    pub routing_changes: usize,
+    /// The screened starting designs (empty with one start).
+    #[serde(default)]
+    pub candidates: Vec<PolishCandidate>,
+    /// Index of the candidate kept and polished to the end.
+    #[serde(default)]
+    pub kept: usize,
+}
+
+/// One screened start of [`polish_candidates`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PolishCandidate {
+    /// Its starting design.
+    pub start: Vec<f64>,
+    /// Its design after the screening polish.
+    pub zeta: Vec<f64>,
+    /// Sampled cost after screening, on the selection episodes (the same for every candidate).
+    pub j_estimate: f64,
+    /// Selection episodes that hit the length cap; above 1 in 1000 the routing counts as
+    /// looping and ranks after every routing that does not.
+    #[serde(default)]
+    pub capped: u64,
+}
+
+/// What one routing round proposes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RoutingProposal {
+    /// The lowest-Q action of every state (the old action where nothing is better).
+    pub action: Vec<usize>,
+    /// States whose action changed.
+    pub changed: usize,
+    /// Environment steps taken.
+    pub transitions: u64,
+}
+
+/// Stream keys of the routing rounds, the candidate selection and the candidates' starts,
+/// above any polish iteration.
+const ROUTING_ONE_STEP: u64 = 1 << 40;
+const ROUTING_ROLLOUT: u64 = 2 << 40;
+const SELECTION: u64 = 3 << 40;
+const STARTS: u64 = 4 << 40;
+
+/// The starting designs of [`polish_candidates`]: `zeta` itself, then `candidates − 1`
+/// designs `zeta + N(0, candidate_spread²I)`. Same inputs, same starts.
+pub fn candidate_starts(zeta: &[f64], s: &PolishSettings, streams: &Streams) -> Vec<Vec<f64>> {
+    (0..s.candidates.max(1) as u64)
+        .map(|c| {
+            if c == 0 {
+                return zeta.to_vec();
+            }
+            let mut rng = streams.stream(Purpose::Polish, STARTS, c);
+            zeta.iter().map(|z| z + s.candidate_spread * rng.sample::<f64, _>(StandardNormal)).collect()
+        })
+        .collect()
+}
+
+/// Polishes from several starts `(design, routing)` and keeps the best: each start gets a
+/// screening polish of `screen_iterations` (with a proportional share of the routing rounds,
+/// at least one, and half the episodes and samples), the screened candidates are ranked by
+/// their sampled cost on `4 · episodes` common episodes, and the lowest is polished for
+/// `iterations` more. With one start this is [`polish`]. Model-free like [`polish`]; same
+/// inputs, same result.
+pub fn polish_candidates<E: ParamMdp + Sync>(
+    env: &E,
+    starts: &[(Vec<f64>, Vec<usize>)],
+    s: &PolishSettings,
+    streams: &Streams,
+) -> (Vec<f64>, Vec<usize>, PolishReport) {
+    assert!(!starts.is_empty(), "polish_candidates needs a start");
+    if starts.len() == 1 || s.iterations == 0 {
+        return polish(env, &starts[0].1, &starts[0].0, s, streams);
+    }
+    // Screening only has to tell basins apart: half the episodes and samples of the polish.
+    let screen = PolishSettings {
+        iterations: s.screen_iterations,
+        episodes: s.episodes.div_ceil(2),
+        routing_samples: s.routing_samples.div_ceil(2),
+        routing_rounds: if s.routing_rounds == 0 {
+            0
+        } else {
+            (s.routing_rounds * s.screen_iterations).div_ceil(s.iterations.max(1)).max(1)
+        },
+        ..*s
+    };
+    // Every candidate screens on the same episodes (common random numbers across starts).
+    let screened: Vec<(Vec<f64>, Vec<usize>, PolishReport)> =
+        starts.iter().map(|(z, a)| polish_run(env, a, z, &screen, streams, 0)).collect();
+    let selection = PolishSettings { episodes: 4 * s.episodes, ..*s };
+    let scores = on_two_threads(&screened, |(z, a, _)| sampled_cost(env, a, z, &selection, streams, SELECTION));
+    let kept = (0..scores.len())
+        .min_by(|&a, &b| {
+            let (ka, kb) = (scores[a].key(), scores[b].key());
+            ka.0.cmp(&kb.0).then(ka.1.cmp(&kb.1)).then(ka.2.total_cmp(&kb.2))
+        })
+        .expect("starts");
+    let (z, a, _) = &screened[kept];
+    let (z, a, mut report) = polish_run(env, a, z, s, streams, s.screen_iterations as u64);
+    report.zeta_before = starts[0].0.clone();
+    report.j_estimate_before = screened[0].2.j_estimate_before;
+    for (r, sc) in screened.iter().map(|x| &x.2).zip(&scores) {
+        report.transitions += r.transitions + sc.steps;
+        report.accepted += r.accepted;
+        report.routing_rounds += r.routing_rounds;
+        report.routing_accepted += r.routing_accepted;
+        report.routing_changes += r.routing_changes;
+    }
+    report.iterations += starts.len() * s.screen_iterations;
+    report.candidates = starts
+        .iter()
+        .zip(&screened)
+        .zip(&scores)
+        .map(|(((start, _), (z, _, _)), sc)| PolishCandidate {
+            start: start.clone(),
+            zeta: z.clone(),
+            j_estimate: sc.cost,
+            capped: sc.capped,
+        })
+        .collect();
+    report.kept = kept;
+    (z, a, report)
+}
+
+/// Runs `f` on every item of `items`, on two threads when there are items enough; the result
+/// does not depend on the thread count (each item is computed whole by one thread).
+fn on_two_threads<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync) -> Vec<U> {
+    if items.len() < 2 {
+        return items.iter().map(&f).collect();
+    }
+    std::thread::scope(|scope| {
+        let (a, b) = items.split_at(items.len().div_ceil(2));
+        let other = scope.spawn(|| b.iter().map(&f).collect::<Vec<_>>());
+        let mut first: Vec<U> = a.iter().map(&f).collect();
+        first.extend(other.join().expect("polish thread"));
+        first
+    })
+}
+
+/// One round of sampled policy iteration on the routing `action` at design `zeta`: V^π of the
+/// successors by `routing_samples` rollouts each, Q of every valid action of every
+/// non-terminal state from `routing_samples` one-step samples (the same stream for each action
+/// of a state), and the lowest-Q action per state. Same inputs, same proposal.
+pub fn improve_routing<E: ParamMdp + Sync>(
+    env: &E,
+    action: &[usize],
+    zeta: &[f64],
+    s: &PolishSettings,
+    streams: &Streams,
+    round: u64,
+) -> RoutingProposal {
+    let n = env.n_states();
+    let r = s.routing_samples.max(1);
+    let states: Vec<usize> = (0..n).filter(|&st| !env.is_terminal(st)).collect();
+    // One-step samples: per state and valid action, the cost sum and successor counts.
+    let samples = on_two_threads(&states, |&st| {
+        let mut steps = 0u64;
+        let per_action: Vec<(f64, Vec<(usize, u32)>)> = env
+            .valid_actions(st)
+            .iter()
+            .map(|&a| {
+                let mut rng = streams.stream(Purpose::Polish, ROUTING_ONE_STEP + round, st as u64);
+                let mut cost = 0.0;
+                let mut next: Vec<(usize, u32)> = Vec::new();
+                for _ in 0..r {
+                    let (s2, c) = env.step(st, a, zeta, &mut rng);
+                    cost += c;
+                    match next.iter_mut().find(|x| x.0 == s2) {
+                        Some(x) => x.1 += 1,
+                        None => next.push((s2, 1)),
+                    }
+                }
+                steps += r as u64;
+                (cost, next)
+            })
+            .collect();
+        (per_action, steps)
+    });
+    let mut transitions: u64 = samples.iter().map(|x| x.1).sum();
+    // V^π of every non-terminal successor, by rollouts under the current routing.
+    let mut needed = vec![false; n];
+    for (per_action, _) in &samples {
+        for (_, next) in per_action {
+            for &(s2, _) in next {
+                needed[s2] = !env.is_terminal(s2);
+            }
+        }
+    }
+    let succ: Vec<usize> = (0..n).filter(|&st| needed[st]).collect();
+    let values = on_two_threads(&succ, |&st| {
+        let mut rng = streams.stream(Purpose::Polish, ROUTING_ROLLOUT + round, st as u64);
+        let (mut total, mut steps) = (0.0, 0u64);
+        for _ in 0..r {
+            let mut cur = st;
+            for _ in 0..s.episode_cap {
+                let (s2, c) = env.step(cur, action[cur], zeta, &mut rng);
+                total += c;
+                steps += 1;
+                if env.is_terminal(s2) {
+                    break;
+                }
+                cur = s2;
+            }
+        }
+        (total / r as f64, steps)
+    });
+    let mut v = vec![0.0; n];
+    for (&st, &(val, steps)) in succ.iter().zip(&values) {
+        v[st] = val;
+        transitions += steps;
+    }
+    let mut new_action = action.to_vec();
+    let mut changed = 0;
+    for (&st, (per_action, _)) in states.iter().zip(&samples) {
+        let q: Vec<f64> = per_action
+            .iter()
+            .map(|(cost, next)| (cost + next.iter().map(|&(s2, k)| k as f64 * v[s2]).sum::<f64>()) / r as f64)
+            .collect();
+        let acts = env.valid_actions(st);
+        let current = acts.iter().position(|&a| a == action[st]);
+        let best = (0..q.len()).min_by(|&i, &j| q[i].total_cmp(&q[j])).expect("a non-terminal state has actions");
+        if current.is_none_or(|c| q[best] < q[c]) {
+            new_action[st] = acts[best];
+            changed += 1;
+        }
+    }
+    RoutingProposal { action: new_action, changed, transitions }
 }
 
 /// Mean cost of episodes `0..n` of polish iteration `it` at `zeta` under the deterministic
@@ -62,23 +328,63 @@ fn sampled_cost<E: ParamMdp + Sync>(
     s: &PolishSettings,
     streams: &Streams,
     it: u64,
-) -> (f64, u64) {
-    let mut total = 0.0;
-    let mut steps = 0;
+) -> Sampled {
+    let mut out = Sampled { cost: 0.0, capped: 0, steps: 0, episodes: s.episodes as u64 };
     for e in 0..s.episodes as u64 {
         let mut rng = streams.stream(Purpose::Polish, it, e);
         let mut st = env.sample_initial(&mut rng);
+        let mut done = false;
         for _ in 0..s.episode_cap {
             let (s2, c) = env.step(st, action[st], zeta, &mut rng);
-            total += c;
-            steps += 1;
+            out.cost += c;
+            out.steps += 1;
             if env.is_terminal(s2) {
+                done = true;
                 break;
             }
             st = s2;
         }
+        out.capped += u64::from(!done);
     }
-    (total / s.episodes as f64, steps)
+    out.cost /= s.episodes as f64;
+    out
+}
+
+/// The sampled cost of one (design, routing) on a set of episodes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Sampled {
+    /// Mean episode cost (capped episodes count with the cost they ran up).
+    cost: f64,
+    /// Episodes that hit the length cap.
+    capped: u64,
+    /// Environment steps taken.
+    steps: u64,
+    /// Episodes sampled.
+    episodes: u64,
+}
+
+/// A sample loops when more than this fraction of its episodes hit the cap. A loop that even
+/// one user of the 271 is routed into caps 1/271 of the episodes; with off-target moves, a
+/// proper routing's rare long episodes cap a few in ten thousand.
+const LOOP_FRACTION: f64 = 1e-3;
+
+impl Sampled {
+    /// Whether the routing loops on these episodes.
+    fn loops(&self) -> bool {
+        self.capped as f64 > LOOP_FRACTION * self.episodes as f64
+    }
+
+    /// Sort key: a routing that loops between two close UAVs runs up little cost before the
+    /// cap and must not look cheap, so looping samples come last (fewer capped episodes
+    /// first among them); the rest are ranked by cost.
+    fn key(&self) -> (bool, u64, f64) {
+        (self.loops(), if self.loops() { self.capped } else { 0 }, self.cost)
+    }
+
+    /// Whether this sample ranks before `other`.
+    fn beats(&self, other: &Sampled) -> bool {
+        self.key().partial_cmp(&other.key()) == Some(std::cmp::Ordering::Less)
+    }
 }
 
 /// Sampled costs at each design, on two threads when there are designs enough; the values do
@@ -90,34 +396,38 @@ fn sampled_costs<E: ParamMdp + Sync>(
     s: &PolishSettings,
     streams: &Streams,
     it: u64,
-) -> (Vec<f64>, u64) {
-    let half = designs.len().div_ceil(2);
-    let run = |ds: &[Vec<f64>]| ds.iter().map(|z| sampled_cost(env, action, z, s, streams, it)).collect::<Vec<_>>();
-    let out: Vec<(f64, u64)> = if designs.len() >= 2 {
-        std::thread::scope(|scope| {
-            let (a, b) = designs.split_at(half);
-            let other = scope.spawn(|| run(b));
-            let mut first = run(a);
-            first.extend(other.join().expect("polish thread"));
-            first
-        })
-    } else {
-        run(designs)
-    };
-    (out.iter().map(|o| o.0).collect(), out.iter().map(|o| o.1).sum())
+) -> Vec<Sampled> {
+    on_two_threads(designs, |z| sampled_cost(env, action, z, s, streams, it))
 }
 
-/// Polishes `zeta` for the fixed policy `action` (one action per state; terminal states'
-/// entries are unused). Same inputs, same result.
+/// Polishes `zeta` for the policy `action` (one action per state; terminal states' entries
+/// are unused), improving that routing on the way when `routing_rounds > 0`. Returns the
+/// design and the routing it was polished for. Same inputs, same result.
 pub fn polish<E: ParamMdp + Sync>(
     env: &E,
     action: &[usize],
     zeta: &[f64],
     s: &PolishSettings,
     streams: &Streams,
-) -> (Vec<f64>, PolishReport) {
+) -> (Vec<f64>, Vec<usize>, PolishReport) {
+    polish_run(env, action, zeta, s, streams, 0)
+}
+
+/// [`polish`] with its iterations (and routing rounds) drawing the episodes of polish
+/// iterations `first..`, so that screening and the final polish use different episodes.
+fn polish_run<E: ParamMdp + Sync>(
+    env: &E,
+    action: &[usize],
+    zeta: &[f64],
+    s: &PolishSettings,
+    streams: &Streams,
+    first: u64,
+) -> (Vec<f64>, Vec<usize>, PolishReport) {
     let d = zeta.len();
     let mut z = zeta.to_vec();
+    let mut action = action.to_vec();
+    let rounds = s.routing_rounds.min(s.iterations);
+    let round_at = |it: u64| (0..rounds as u64).find(|r| r * s.iterations as u64 / rounds as u64 == it);
     let mut report = PolishReport {
         zeta_before: zeta.to_vec(),
         iterations: s.iterations,
@@ -125,9 +435,31 @@ pub fn polish<E: ParamMdp + Sync>(
         j_estimate_before: f64::NAN,
         j_estimate_after: f64::NAN,
         transitions: 0,
+        routing_rounds: 0,
+        routing_accepted: 0,
+        routing_changes: 0,
+        candidates: Vec::new(),
+        kept: 0,
     };
     let mut step = s.step;
-    for it in 0..s.iterations as u64 {
+    for local in 0..s.iterations as u64 {
+        let it = first + local;
+        if let Some(round) = round_at(local) {
+            let p = improve_routing(env, &action, &z, s, streams, first + round);
+            report.transitions += p.transitions;
+            report.routing_rounds += 1;
+            if p.changed > 0 {
+                // Kept only if this iteration's episodes cost less under it.
+                let j = sampled_costs_of(env, &[&action, &p.action], &z, s, streams, it);
+                report.transitions += j.iter().map(|x| x.steps).sum::<u64>();
+                if j[1].beats(&j[0]) {
+                    action = p.action;
+                    report.routing_accepted += 1;
+                    report.routing_changes += p.changed;
+                }
+            }
+        }
+        let action = &action[..];
         // The design and its 2d neighbours, all on this iteration's episodes.
         let mut designs = vec![z.clone()];
         for i in 0..d {
@@ -137,13 +469,13 @@ pub fn polish<E: ParamMdp + Sync>(
                 designs.push(y);
             }
         }
-        let (j, n) = sampled_costs(env, action, &designs, s, streams, it);
-        report.transitions += n;
-        if it == 0 {
-            report.j_estimate_before = j[0];
+        let j = sampled_costs(env, action, &designs, s, streams, it);
+        report.transitions += j.iter().map(|x| x.steps).sum::<u64>();
+        if local == 0 {
+            report.j_estimate_before = j[0].cost;
         }
-        report.j_estimate_after = j[0];
-        let g: Vec<f64> = (0..d).map(|i| (j[1 + 2 * i] - j[2 + 2 * i]) / (2.0 * s.h)).collect();
+        report.j_estimate_after = j[0].cost;
+        let g: Vec<f64> = (0..d).map(|i| (j[1 + 2 * i].cost - j[2 + 2 * i].cost) / (2.0 * s.h)).collect();
         let norm = g.iter().map(|x| x * x).sum::<f64>().sqrt();
         if !(norm > 0.0 && norm.is_finite()) {
             continue;
@@ -153,11 +485,11 @@ pub fn polish<E: ParamMdp + Sync>(
         let mut accepted = false;
         for _ in 0..6 {
             let y: Vec<f64> = z.iter().zip(&g).map(|(zi, gi)| zi - step * gi / norm).collect();
-            let (jy, n) = sampled_costs(env, action, std::slice::from_ref(&y), s, streams, it);
-            report.transitions += n;
-            if jy[0] < j[0] {
+            let jy = sampled_cost(env, action, &y, s, streams, it);
+            report.transitions += jy.steps;
+            if jy.beats(&j[0]) {
                 z = y;
-                report.j_estimate_after = jy[0];
+                report.j_estimate_after = jy.cost;
                 report.accepted += 1;
                 step *= 1.5;
                 accepted = true;
@@ -169,7 +501,19 @@ pub fn polish<E: ParamMdp + Sync>(
             step = step.max(s.h / 2.0) * 8.0;
         }
     }
-    (z, report)
+    (z, action, report)
+}
+
+/// Sampled costs of several routings at one design, on the episodes of polish iteration `it`.
+fn sampled_costs_of<E: ParamMdp + Sync>(
+    env: &E,
+    actions: &[&[usize]],
+    zeta: &[f64],
+    s: &PolishSettings,
+    streams: &Streams,
+    it: u64,
+) -> Vec<Sampled> {
+    on_two_threads(actions, |a| sampled_cost(env, a, zeta, s, streams, it))
 }
 
 #[cfg(test)]
@@ -181,6 +525,11 @@ mod tests {
 
     /// A 20-user, 3-UAV instance at κ = 0.85.
     fn tiny() -> UavNetwork {
+        tiny_at(0.85)
+    }
+
+    /// The same instance at another κ.
+    fn tiny_at(kappa: f64) -> UavNetwork {
         let inst = envpg_core::instance::generate(&envpg_core::instance::GenerateSpec {
             name: "tiny".into(),
             n_users: 20,
@@ -191,7 +540,7 @@ mod tests {
             seed: 7,
         })
         .unwrap();
-        UavNetwork::new(inst, 0.85, 100.0).unwrap()
+        UavNetwork::new(inst, kappa, 100.0).unwrap()
     }
 
     fn exact_j(net: &UavNetwork, action: &[usize], zeta: &[f64]) -> f64 {
@@ -212,7 +561,18 @@ mod tests {
     }
 
     fn settings(iterations: usize) -> PolishSettings {
-        PolishSettings { iterations, episodes: 512, h: 0.005, step: 0.05, episode_cap: 25 }
+        PolishSettings {
+            iterations,
+            episodes: 512,
+            h: 0.005,
+            step: 0.05,
+            episode_cap: 25,
+            routing_rounds: 0,
+            routing_samples: 0,
+            candidates: 1,
+            candidate_spread: 0.0,
+            screen_iterations: 0,
+        }
     }
 
     #[test]
@@ -224,8 +584,8 @@ mod tests {
         zeta[0] += 1.0;
         let before = exact_j(&net, &action, &zeta);
         let streams = Streams::new(3);
-        let (z1, r1) = polish(&net, &action, &zeta, &settings(40), &streams);
-        let (z2, r2) = polish(&net, &action, &zeta, &settings(40), &streams);
+        let (z1, _, r1) = polish(&net, &action, &zeta, &settings(40), &streams);
+        let (z2, _, r2) = polish(&net, &action, &zeta, &settings(40), &streams);
         assert_eq!((&z1, &r1), (&z2, &r2), "same inputs, same result");
         let after = exact_j(&net, &action, &z1);
         assert!(after < 0.9 * before, "exact J {before} → {after}");
@@ -233,11 +593,114 @@ mod tests {
         assert_eq!(r1.zeta_before, zeta);
     }
 
+    /// The exact policy-improvement step of `action` at `zeta`: per non-terminal state, the
+    /// exact Q^π(s, a) = r̄(s, a) + Σ p V^π(s') of every valid action.
+    fn exact_q(net: &UavNetwork, action: &[usize], zeta: &[f64]) -> Vec<Vec<(usize, f64)>> {
+        let sets = ActionSets::new(net);
+        let snap = Snapshot::build(net, zeta);
+        let v = evaluate(&snap, &sets.one_hot(action), 0.0).unwrap().v;
+        (0..net.n_states())
+            .map(|s| snap.sas(s).map(|sa| (snap.sa_action[sa], snap.rbar[sa] + snap.expect(sa, &v))).collect())
+            .collect()
+    }
+
+    #[test]
+    fn a_routing_round_takes_the_exact_improving_action_wherever_it_is_clear() {
+        let net = tiny();
+        let action = policy(&net);
+        let zeta: Vec<f64> = net.instance().users[..3].iter().flat_map(|u| [u[0] + 0.5, u[1] - 0.5]).collect();
+        let s = PolishSettings { routing_samples: 4096, ..settings(1) };
+        let p = improve_routing(&net, &action, &zeta, &s, &Streams::new(5), 0);
+        assert_eq!(p, improve_routing(&net, &action, &zeta, &s, &Streams::new(5), 0), "same inputs, same proposal");
+        let q = exact_q(&net, &action, &zeta);
+        let mut clear = 0;
+        for st in (0..net.n_states()).filter(|&st| !net.is_terminal(st)) {
+            let mut qs = q[st].clone();
+            qs.sort_by(|a, b| a.1.total_cmp(&b.1));
+            // Where the best action beats the runner-up by 5%, sampling must find it.
+            if qs.len() == 1 || qs[0].1 < 0.95 * qs[1].1 {
+                assert_eq!(p.action[st], qs[0].0, "state {st}: exact Q {qs:?}");
+                clear += 1;
+            }
+        }
+        assert!(clear > net.n_users() / 2, "the test must check most states ({clear})");
+        assert!(p.changed > 0, "policy() sends every user to UAV 0: some must change");
+        assert!(exact_j(&net, &p.action, &zeta) < exact_j(&net, &action, &zeta));
+    }
+
+    #[test]
+    fn routing_rounds_let_the_polish_go_below_the_frozen_routing() {
+        let net = tiny();
+        let action = policy(&net);
+        let zeta: Vec<f64> = net.instance().users[..3].iter().flat_map(|u| [u[0] + 1.0, u[1] - 1.0]).collect();
+        let streams = Streams::new(2);
+        let (zf, af, _) = polish(&net, &action, &zeta, &settings(20), &streams);
+        assert_eq!(af, action, "without rounds the routing is frozen");
+        let s = PolishSettings { routing_rounds: 4, routing_samples: 512, ..settings(20) };
+        let (zr, ar, r) = polish(&net, &action, &zeta, &s, &streams);
+        assert_eq!((r.routing_rounds, r.routing_accepted > 0), (4, true), "{r:?}");
+        let (frozen, routed) = (exact_j(&net, &af, &zf), exact_j(&net, &ar, &zr));
+        assert!(routed < 0.95 * frozen, "exact J: frozen routing {frozen}, improved routing {routed}");
+    }
+
+    #[test]
+    fn the_candidate_with_the_lowest_sampled_cost_is_kept() {
+        let net = tiny();
+        let action = policy(&net);
+        let users = &net.instance().users;
+        // Candidate 1 has UAV 0 (every user's relay) amid the users; candidate 0 far away.
+        let near: Vec<f64> = users[..3].iter().flat_map(|u| [u[0], u[1]]).collect();
+        let far: Vec<f64> = near.iter().map(|x| x + 6.0).collect();
+        let s = PolishSettings { candidates: 2, candidate_spread: 0.3, screen_iterations: 2, ..settings(4) };
+        let starts = vec![(far.clone(), action.clone()), (near.clone(), action.clone())];
+        let streams = Streams::new(9);
+        let (z, a, r) = polish_candidates(&net, &starts, &s, &streams);
+        assert_eq!(r.kept, 1, "{r:?}");
+        assert!(r.candidates[1].j_estimate < r.candidates[0].j_estimate);
+        assert_eq!((r.zeta_before.clone(), r.iterations), (far, 4 + 2 * 2));
+        assert!(exact_j(&net, &a, &z) < exact_j(&net, &action, &r.candidates[0].zeta));
+        let again = polish_candidates(&net, &starts, &s, &streams);
+        assert_eq!((z, a, r), again, "same inputs, same result");
+        let starts = candidate_starts(&near, &s, &streams);
+        assert_eq!((starts.len(), &starts[0]), (2, &near));
+        assert_ne!(starts[1], near);
+    }
+
+    #[test]
+    fn a_looping_routing_never_wins_on_the_little_it_costs_before_the_cap() {
+        // κ = 1: no off-target move ever breaks the loop.
+        let net = tiny_at(1.0);
+        let proper = policy(&net);
+        // UAVs 0 and 1 side by side amid the users, passing packets to each other: each hop
+        // between them is nearly free, and every episode runs into the cap.
+        let mut looping = proper.clone();
+        looping[net.n_users()] = 1;
+        looping[net.n_users() + 1] = 0;
+        let users = &net.instance().users;
+        let n = users.len() as f64;
+        let c = users.iter().fold([0.0, 0.0], |a, u| [a[0] + u[0] / n, a[1] + u[1] / n]);
+        let zeta = vec![c[0], c[1], c[0] + 0.001, c[1], c[0], c[1] + 3.0];
+        let s = settings(2);
+        let streams = Streams::new(4);
+        let (p, l) =
+            (sampled_cost(&net, &proper, &zeta, &s, &streams, 0), sampled_cost(&net, &looping, &zeta, &s, &streams, 0));
+        assert!(l.capped > 0 && p.capped == 0, "{l:?} {p:?}");
+        assert!(l.cost < p.cost, "the trap: capped episodes look cheap ({l:?} {p:?})");
+        assert!(l.loops() && !p.loops());
+        assert!(p.beats(&l) && !l.beats(&p));
+        // A proper routing's rare long episode is not a loop: then the cost decides.
+        let rare = Sampled { capped: 1, episodes: 8192, cost: p.cost - 1.0, ..p };
+        assert!(!rare.loops() && rare.beats(&p));
+        let s = PolishSettings { candidates: 2, screen_iterations: 1, ..s };
+        let (_, a, r) = polish_candidates(&net, &[(zeta.clone(), looping), (zeta, proper.clone())], &s, &streams);
+        assert_eq!((r.kept, a), (1, proper), "{r:?}");
+    }
+
     #[test]
     fn no_iterations_leave_the_design_alone() {
         let net = tiny();
         let zeta = vec![1.0; 6];
-        let (z, r) = polish(&net, &policy(&net), &zeta, &settings(0), &Streams::new(1));
+        let (z, _, r) = polish(&net, &policy(&net), &zeta, &settings(0), &Streams::new(1));
         assert_eq!(z, zeta);
         assert_eq!((r.iterations, r.accepted, r.transitions), (0, 0, 0));
     }

@@ -141,5 +141,6 @@ mod tests {
                 None => assert!(net.is_terminal(s) && actions[s] == 0, "state {s}"),
             }
         }
+        assert_eq!(sets.one_hot(&actions), one_hot, "and back");
     }
 }

@@ -191,20 +191,29 @@ impl Recorder {
     ///
     /// Both policies are the actor's at the reported ζ of Algorithm 1. With
     /// `polish_iterations > 0` the design is then polished for the greedy one
-    /// ([`crate::polish`]), and both are scored at the polished ζ; `details.polish` keeps the
-    /// design before the polish.
+    /// ([`crate::polish`]), whose routing the polish may improve (`polish_routing`): the
+    /// greedy policy reported is the routing the design was polished for, and both policies
+    /// are scored at the polished ζ; `details.polish` keeps the design before the polish.
     pub fn finish(&self, net: &UavNetwork, learner: &Learner, method: &str, details: serde_json::Value) -> ResultFile {
         let before = learner.reported_zeta();
         let mut table = PolicyTable::new(learner.actor(), learner.features(), learner.action_sets(), &before);
-        let greedy = table.greedy();
         let started = Instant::now();
-        let (zeta, polish) = if self.spec.config.polish_iterations > 0 {
-            let action = table.greedy_actions();
-            let (z, report) =
-                polish::polish(net, &action, &before, &self.spec.config.polish(), &Streams::new(self.spec.seed));
-            (z, Some(report))
+        let (zeta, greedy, polish) = if self.spec.config.polish_iterations > 0 {
+            let settings = self.spec.config.polish();
+            let streams = Streams::new(self.spec.seed);
+            // Each start begins with the actor's greedy routing at that design.
+            let starts: Vec<(Vec<f64>, Vec<usize>)> = polish::candidate_starts(&before, &settings, &streams)
+                .into_iter()
+                .map(|z| {
+                    let actions = PolicyTable::new(learner.actor(), learner.features(), learner.action_sets(), &z)
+                        .greedy_actions();
+                    (z, actions)
+                })
+                .collect();
+            let (z, action, report) = polish::polish_candidates(net, &starts, &settings, &streams);
+            (z, self.sets.one_hot(&action), Some(report))
         } else {
-            (before, None)
+            (before, table.greedy(), None)
         };
         let polish_seconds = started.elapsed().as_secs_f64();
         let snap = Snapshot::build(net, &zeta);

@@ -63,6 +63,23 @@ pub struct TrainArgs {
     /// First step length of the polish.
     #[arg(long)]
     pub polish_step: Option<f64>,
+    /// Rounds of sampled policy iteration on the routing during the polish (0: the actor's
+    /// greedy routing stays frozen).
+    #[arg(long)]
+    pub polish_routing: Option<usize>,
+    /// One-step samples per (state, action), and rollouts per state, of a routing round.
+    #[arg(long)]
+    pub polish_routing_samples: Option<usize>,
+    /// Starting designs of the polish: the final design and others around it; each is
+    /// screened, and the one with the lowest sampled cost is polished (1: final design only).
+    #[arg(long)]
+    pub polish_candidates: Option<usize>,
+    /// Standard deviation of the other polish starts' offsets from the final design.
+    #[arg(long)]
+    pub polish_spread: Option<f64>,
+    /// Screening iterations per polish start.
+    #[arg(long)]
+    pub polish_screen: Option<usize>,
     /// σ at the last iteration as a fraction of --sigma (geometric over the ζ phase; 1 = constant).
     #[arg(long)]
     pub sigma_anneal: Option<f64>,
@@ -214,6 +231,7 @@ impl TrainArgs {
         }
         set!(iterations, episodes, explore_episodes, explore_eps, explore_start, episode_cap, sigma, hidden);
         set!(sigma_anneal, polish_iterations, polish_episodes, polish_h, polish_step);
+        set!(polish_routing, polish_routing_samples, polish_candidates, polish_spread, polish_screen);
         set!(critic_lr, critic_steps, batch, polyak, actor_lr, actor_steps, warmup, zeta_lr, zeta_lr_decay);
         set!(zeta_clip, alpha0, alpha_decay, alpha_final, eval_every, relocate_every, relocate_below);
         set!(loop_tolerance, alpha_backoff, zeta_average);

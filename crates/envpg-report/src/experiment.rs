@@ -428,7 +428,16 @@ fn preamble(plan: &TablePlan, runner: &dyn Alg1Runner, files: &[(Job, ResultFile
             c.alpha_final,
             c.zeta_estimator,
             if c.polish_iterations > 0 {
-                format!(", then ζ polish: {} iterations × {} episodes", c.polish_iterations, c.polish_episodes)
+                format!(
+                    ", then ζ polish: {} iterations × {} episodes, {} routing rounds, best of {} starts \
+                     (spread {}, {} screening iterations each)",
+                    c.polish_iterations,
+                    c.polish_episodes,
+                    c.polish_routing,
+                    c.polish_candidates,
+                    c.polish_spread,
+                    c.polish_screen
+                )
             } else {
                 String::new()
             },
