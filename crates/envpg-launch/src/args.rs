@@ -50,8 +50,9 @@ pub struct TrainArgs {
     /// σ of the per-step perturbation of ζ.
     #[arg(long)]
     pub sigma: Option<f64>,
-    /// Iterations of the ζ polish after training: ζ refined for the frozen greedy policy by
-    /// central differences of sampled episodes with common random numbers (0: none).
+    /// Iterations of the ζ polish after training: ζ refined for the greedy routing (improved
+    /// along the way by `--polish-routing` rounds) by central differences of sampled episodes
+    /// with common random numbers (0: none).
     #[arg(long)]
     pub polish_iterations: Option<usize>,
     /// Episodes per sampled-cost estimate of the polish.
