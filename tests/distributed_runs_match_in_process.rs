@@ -30,22 +30,8 @@ fn every_execution_mode_gives_the_same_run() {
         kappa: 0.9,
         eta: 100.0,
         seed: 11,
-        config: envpg_ac::AcConfig {
-            iterations: 60,
-            episodes: 16,
-            explore_episodes: 8,
-            hidden: vec![32],
-            batch: 128,
-            warmup: 20,
-            eval_every: 20,
-            polish_iterations: 3,
-            polish_episodes: 64,
-            polish_routing: 1,
-            polish_routing_samples: 64,
-            polish_candidates: 2,
-            polish_screen: 2,
-            ..Default::default()
-        },
+        // The settings `small_run` passes on the command line.
+        config: envpg_ac::AcConfig { warmup: 20, eval_every: 20, ..support::small_config(60) },
     };
     let serial = envpg_ac::trainer::train(&spec, |_| true).unwrap();
     let serial_path = dir.path().join("serial.json");

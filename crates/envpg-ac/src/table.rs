@@ -101,13 +101,8 @@ impl<'a> PolicyTable<'a> {
 
     /// The most probable action of every state (lowest index on ties), one-hot per pair.
     pub fn greedy(&mut self) -> Vec<f64> {
-        let mut out = vec![0.0; self.probs.len()];
-        for (s, best) in self.argmax_indices().into_iter().enumerate() {
-            if let Some(i) = best {
-                out[self.sets.first(s) + i] = 1.0;
-            }
-        }
-        out
+        let actions = self.greedy_actions();
+        self.sets.one_hot(&actions)
     }
 
     /// The same greedy policy as [`PolicyTable::greedy`], as one global action per state
