@@ -16,11 +16,12 @@ fn strip_timings(mut r: envpg_core::ResultFile) -> serde_json::Value {
 fn same_seed_gives_identical_results_and_another_seed_does_not() {
     for kappa in [1.0, 0.85] {
         let spec = support::tiny_spec(kappa, 7, 120);
-        let a = train(&spec, |_| true).unwrap();
-        let b = train(&spec, |_| true).unwrap();
+        let reg = support::registry();
+        let a = train(&spec, &reg, |_| true).unwrap();
+        let b = train(&spec, &reg, |_| true).unwrap();
         assert_eq!(a.zeta, b.zeta, "kappa {kappa}");
         assert_eq!(strip_timings(a.clone()), strip_timings(b));
-        let c = train(&support::tiny_spec(kappa, 8, 120), |_| true).unwrap();
+        let c = train(&support::tiny_spec(kappa, 8, 120), &reg, |_| true).unwrap();
         assert_ne!(a.zeta, c.zeta);
     }
 }

@@ -25,15 +25,12 @@ fn every_execution_mode_gives_the_same_run() {
         results.push((name, comparable(&out)));
     }
     // The library's serial trainer, for reference.
-    let spec = envpg_ac::trainer::RunSpec {
-        instance: envpg_core::Instance::load(&inst).unwrap(),
-        kappa: 0.9,
-        eta: 100.0,
-        seed: 11,
-        // The settings `small_run` passes on the command line.
-        config: envpg_ac::AcConfig { warmup: 20, eval_every: 20, ..support::small_config(60) },
-    };
-    let serial = envpg_ac::trainer::train(&spec, |_| true).unwrap();
+    let registry = support::registry();
+    let env = registry.load(&inst, &[("kappa".into(), 0.9)]).unwrap();
+    // The settings `small_run` passes on the command line.
+    let config = envpg_ac::AcConfig { warmup: 20, eval_every: 20, ..support::small_config(60) };
+    let spec = envpg_ac::trainer::RunSpec::new(&env, 11, config);
+    let serial = envpg_ac::trainer::train(&spec, &registry, |_| true).unwrap();
     let serial_path = dir.path().join("serial.json");
     serial.save(&serial_path).unwrap();
     results.push(("serial", comparable(&serial_path)));

@@ -11,12 +11,13 @@ use envpg_core::Streams;
 #[test]
 fn malformed_batches_are_refused_without_side_effects() {
     let spec = support::tiny_spec(1.0, 1, 10);
-    let (net, _, mut learner) = spec.start().unwrap();
+    let (env, _, mut learner) = spec.start(&support::registry()).unwrap();
+    let net = env.sampler();
     let sets = learner.action_sets().clone();
     let streams = Streams::new(1);
     let mut table = learner.policy_table();
     let zeta = learner.zeta().to_vec();
-    let episodes = run_iteration(&net, &sets, &mut table, &zeta, &spec.config, &streams, 0);
+    let episodes = run_iteration(net, &sets, &mut table, &zeta, &spec.config, &streams, 0);
     let before = learner.state();
 
     let e = learner.update(&Batch { k: 3, episodes: episodes.clone() }).unwrap_err();
@@ -47,11 +48,12 @@ fn malformed_batches_are_refused_without_side_effects() {
 #[test]
 fn a_diverged_update_is_an_error_naming_what_diverged_and_leaves_zeta_alone() {
     let spec = support::tiny_spec(1.0, 1, 10);
-    let (net, _, mut learner) = spec.start().unwrap();
+    let (env, _, mut learner) = spec.start(&support::registry()).unwrap();
+    let net = env.sampler();
     let sets = learner.action_sets().clone();
     let mut table = learner.policy_table();
     let zeta = learner.zeta().to_vec();
-    let episodes = run_iteration(&net, &sets, &mut table, &zeta, &spec.config, &Streams::new(1), 0);
+    let episodes = run_iteration(net, &sets, &mut table, &zeta, &spec.config, &Streams::new(1), 0);
     // A critic whose weights have blown up (as with `critic_init=default` at κ = 0.85).
     let mut st = learner.state();
     st.critic.iter_mut().for_each(|w| *w = f32::NAN);

@@ -19,7 +19,7 @@ fn frozen_spec() -> envpg_ac::trainer::RunSpec {
 
 #[test]
 fn estimates_point_the_way_of_the_exact_gradient() {
-    let study = estimator_study(&frozen_spec(), 400, 200).unwrap();
+    let study = estimator_study(&frozen_spec(), &support::registry(), 400, 200).unwrap();
     let norm: f64 = study.exact.iter().map(|x| x * x).sum::<f64>().sqrt();
     assert!(norm > 1.0, "the frozen design should be far from stationary (‖∇‖ = {norm})");
     for e in &study.estimators {
@@ -47,10 +47,11 @@ fn estimates_point_the_way_of_the_exact_gradient() {
 #[test]
 fn baseline_and_sampled_estimators_agree_in_expectation() {
     let spec = frozen_spec();
-    let (net, _, mut learner) = spec.start().unwrap();
+    let (env, _, mut learner) = spec.start(&support::registry()).unwrap();
+    let net = env.sampler();
     let streams = Streams::new(spec.seed);
     let sets = learner.action_sets().clone();
-    advance(&net, &mut learner, &spec.config, &streams, 300).unwrap();
+    advance(net, &mut learner, &spec.config, &streams, 300).unwrap();
     // Paired differences on the same batches: E[∇ζ ln π · V(s)] = 0, so their mean is zero up
     // to its standard error.
     let zeta = learner.zeta().to_vec();
@@ -59,7 +60,7 @@ fn baseline_and_sampled_estimators_agree_in_expectation() {
     let (mut sum, mut sq) = (vec![0.0; d], vec![0.0; d]);
     for i in 0..n {
         let mut table = learner.policy_table();
-        let episodes = run_iteration(&net, &sets, &mut table, &zeta, &spec.config, &streams, 1_000_000 + i);
+        let episodes = run_iteration(net, &sets, &mut table, &zeta, &spec.config, &streams, 1_000_000 + i);
         let on: Vec<_> = episodes.iter().filter(|e| !e.explore).collect();
         let a = learner.zeta_gradient_with(&on, ZetaEstimator::Sampled);
         let b = learner.zeta_gradient_with(&on, ZetaEstimator::Baseline);

@@ -14,28 +14,31 @@ use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_mai
 use envpg_ac::rollout::run_iteration;
 use envpg_ac::trainer::{RunSpec, advance};
 use envpg_ac::{AcConfig, Batch};
-use envpg_core::{Instance, Streams};
+use envpg_core::Streams;
 
 fn bench(c: &mut Criterion) {
     // As the binaries do: the learner's buffers are reused, not faulted in again every iteration.
     envpg_ac::memory::retain_freed_memory();
     let config = AcConfig::bundled("uav").expect("bundled preset");
-    let spec = RunSpec { instance: Instance::bundled(), kappa: 1.0, eta: 100.0, seed: 1, config: config.clone() };
-    let (net, _, mut learner) = spec.start().expect("valid spec");
+    let registry = envpg_envs::registry();
+    let env = registry.load("uav271", &[]).expect("bundled instance");
+    let spec = RunSpec::new(&env, 1, config.clone());
+    let (_, mut learner) = spec.start_on(&env).expect("valid spec");
+    let net = env.sampler();
     let streams = Streams::new(spec.seed);
     let sets = learner.action_sets().clone();
-    advance(&net, &mut learner, &config, &streams, 500).expect("valid batches");
+    advance(net, &mut learner, &config, &streams, 500).expect("valid batches");
     let k = learner.k();
     let zeta = learner.zeta().to_vec();
     let mut table = learner.policy_table();
     table.full();
-    let episodes = run_iteration(&net, &sets, &mut table, &zeta, &config, &streams, k);
+    let episodes = run_iteration(net, &sets, &mut table, &zeta, &config, &streams, k);
     let transitions: usize = episodes.iter().map(|e| e.len()).sum();
 
     let mut g = c.benchmark_group("algorithm1_uav271_k1");
     g.throughput(Throughput::Elements(transitions as u64));
     g.bench_function("rollout_sampling", |b| {
-        b.iter(|| run_iteration(&net, &sets, &mut table, black_box(&zeta), &config, &streams, k))
+        b.iter(|| run_iteration(net, &sets, &mut table, black_box(&zeta), &config, &streams, k))
     });
     g.throughput(Throughput::Elements(sets.n_pairs() as u64));
     g.bench_function("policy_table", |b| {

@@ -8,6 +8,9 @@ use serde::{Deserialize, Serialize};
 /// directory.
 pub const BUNDLED_PRESETS: &str = include_str!("../../../launch/presets.toml");
 
+/// The preset of an environment that has none of its own: the defaults, tuned on the UAV network.
+pub const DEFAULT_PRESET: &str = "uav";
+
 /// How the actor follows the critic.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -43,8 +46,8 @@ pub enum ZetaEstimator {
 pub enum ZetaOptimizer {
     /// The paper's step `ζ ← ζ − ι·ĝ` (after optional norm clipping).
     Sgd,
-    /// Adam on ζ: per-coordinate normalised steps of about ι, so a UAV whose gradient is small
-    /// but consistent (a relay the policy barely uses yet) still moves.
+    /// Adam on ζ: per-coordinate normalised steps of about ι, so a coordinate whose gradient is
+    /// small but consistent (a design element the policy barely uses yet) still moves.
     Adam,
 }
 
@@ -63,11 +66,11 @@ pub enum CriticInit {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Zeta0 {
-    /// Uniform over the users' bounding box (stream `Zeta0` of the seed).
+    /// The environment's random design (`ParamMdp::random_design`, stream `Zeta0` of the seed).
     Random,
-    /// From the observable coordinates: UAV j at fraction j/m of the way from the users'
-    /// centroid to the destination, a relay chain along that line (no model involved).
-    Users,
+    /// The environment's own initial design from observable data (`ParamMdp::heuristic_design`,
+    /// no model involved).
+    Env,
     /// A given design.
     Given(Vec<f64>),
 }
@@ -130,17 +133,17 @@ pub struct AcConfig {
     pub zeta_estimator: ZetaEstimator,
     /// ζ update rule.
     pub zeta_optimizer: ZetaOptimizer,
-    /// Every this many iterations after warm-up, move one *idle* design element (a UAV the
-    /// on-policy episodes did not visit lately) to the midpoint of the costliest on-policy hop
-    /// (0: never). Moving an
-    /// unused UAV does not change J, and it gives the gradient a UAV to work with; without it
-    /// a UAV that loses its traffic stays unused (the single-UAV trap).
+    /// Every this many iterations after warm-up, move one *idle* design element (one the
+    /// on-policy episodes did not visit lately) to where the environment says it would serve
+    /// the costliest on-policy hop (`ParamMdp::relocate`; 0: never). Moving an unused element
+    /// does not change J, and it gives the gradient an element to work with; without it an
+    /// element that loses its traffic stays unused (in the UAV network, the single-UAV trap).
     pub relocate_every: usize,
     /// A design element is idle when its recent visit rate is below this fraction of the
     /// busiest one's.
     pub relocate_below: f64,
     /// When more than this fraction of on-policy episodes hit the cap, the entropy term is paying
-    /// for loops between UAVs (the model-free face of soft SSP divergence): the ζ step is skipped
+    /// for loops (the model-free face of soft SSP divergence; only with γ = 1): the ζ step is skipped
     /// and α is multiplied by `alpha_backoff` (1 disables both).
     pub loop_tolerance: f64,
     /// Extra temperature factor applied while looping.
@@ -161,14 +164,16 @@ pub struct AcConfig {
     pub polish_h: f64,
     /// First step length of the polish (steps are normalised).
     pub polish_step: f64,
-    /// Rounds of sampled policy iteration on the polish's routing, spread over its iterations
-    /// (0: the routing stays the final actor's greedy policy).
-    pub polish_routing: usize,
-    /// One-step samples per (state, action), and rollouts per state, of a routing round.
-    pub polish_routing_samples: usize,
+    /// Rounds of sampled policy iteration on the polish's policy, spread over its iterations
+    /// (0: the policy stays the final actor's greedy policy).
+    #[serde(alias = "polish_routing")]
+    pub polish_policy_rounds: usize,
+    /// One-step samples per (state, action), and rollouts per state, of a policy round.
+    #[serde(alias = "polish_routing_samples")]
+    pub polish_policy_samples: usize,
     /// Starting designs of the polish: the design Algorithm 1 ends with and
     /// `polish_candidates − 1` others around it (`polish_spread`), each with the actor's greedy
-    /// routing at that design; each is screened for `polish_screen` iterations, and the one
+    /// policy at that design; each is screened for `polish_screen` iterations, and the one
     /// whose sampled cost is lowest is kept and polished (1: the final design only).
     pub polish_candidates: usize,
     /// Standard deviation of the other starts' offsets from the final design.
@@ -219,8 +224,8 @@ impl Default for AcConfig {
             polish_episodes: 2048,
             polish_h: 0.005,
             polish_step: 0.05,
-            polish_routing: 8,
-            polish_routing_samples: 1024,
+            polish_policy_rounds: 8,
+            polish_policy_samples: 1024,
             polish_candidates: 16,
             polish_spread: 0.3,
             polish_screen: 20,
@@ -305,8 +310,8 @@ impl AcConfig {
             h: self.polish_h,
             step: self.polish_step,
             episode_cap: self.episode_cap,
-            routing_rounds: self.polish_routing,
-            routing_samples: self.polish_routing_samples,
+            policy_rounds: self.polish_policy_rounds,
+            policy_samples: self.polish_policy_samples,
             candidates: self.polish_candidates,
             candidate_spread: self.polish_spread,
             screen_iterations: self.polish_screen,
@@ -354,8 +359,8 @@ impl AcConfig {
         if self.polish_iterations > 0 && self.polish_episodes == 0 {
             return err("polish_episodes", "must be at least 1 when polish_iterations > 0".into());
         }
-        if self.polish_routing > 0 && self.polish_routing_samples == 0 {
-            return err("polish_routing_samples", "must be at least 1 when polish_routing > 0".into());
+        if self.polish_policy_rounds > 0 && self.polish_policy_samples == 0 {
+            return err("polish_policy_samples", "must be at least 1 when polish_policy_rounds > 0".into());
         }
         if !(1..=16).contains(&self.polish_candidates) {
             return err("polish_candidates", format!("must be in 1..=16, got {}", self.polish_candidates));
@@ -440,6 +445,26 @@ impl AcConfig {
     /// Preset `name` of the bundled preset file.
     pub fn bundled(name: &str) -> Result<Self, PresetError> {
         Self::from_preset_str(BUNDLED_PRESETS, Path::new("<bundled presets.toml>"), name)
+    }
+
+    /// The preset for environment `env` in the bundled preset file: the one named like it, or
+    /// `uav` (the defaults) when there is none.
+    pub fn bundled_for(env: &str) -> Result<Self, PresetError> {
+        Self::from_preset_str_for(BUNDLED_PRESETS, Path::new("<bundled presets.toml>"), env)
+    }
+
+    /// The preset for environment `env` in a preset file (named like it, or `uav`).
+    pub fn from_preset_for(path: &Path, env: &str) -> Result<Self, PresetError> {
+        let text = std::fs::read_to_string(path).map_err(|err| PresetError::Io { path: path.to_owned(), err })?;
+        Self::from_preset_str_for(&text, path, env)
+    }
+
+    /// As [`AcConfig::from_preset_for`], from text.
+    pub fn from_preset_str_for(text: &str, path: &Path, env: &str) -> Result<Self, PresetError> {
+        let table: toml::Table =
+            toml::from_str(text).map_err(|err| PresetError::Parse { path: path.to_owned(), err })?;
+        let name = if table.contains_key(env) { env } else { DEFAULT_PRESET };
+        Self::from_preset_str(text, path, name)
     }
 
     /// Sets one setting by name from its text, as a preset file would (`sigma` / `0.1`,
@@ -553,7 +578,7 @@ mod tests {
             AcConfig { polish_candidates: 0, ..Default::default() },
             AcConfig { polish_spread: f64::NAN, ..Default::default() },
             AcConfig { polish_screen: 0, ..Default::default() },
-            AcConfig { polish_routing_samples: 0, ..Default::default() },
+            AcConfig { polish_policy_samples: 0, ..Default::default() },
         ];
         let fields: Vec<_> = bad.iter().map(|c| c.validate().unwrap_err().field).collect();
         assert_eq!(
@@ -566,7 +591,7 @@ mod tests {
                 "polish_candidates",
                 "polish_spread",
                 "polish_screen",
-                "polish_routing_samples"
+                "polish_policy_samples"
             ]
         );
     }

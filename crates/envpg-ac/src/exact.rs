@@ -58,19 +58,24 @@ impl ParamPolicy for ActorPolicy {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use envpg_core::{Instance, ParamMdp, Purpose, Streams, UavNetwork};
+    use envpg_core::{Env, ParamMdp, Purpose, Streams};
+    use envpg_envs::uav::{UavInstance, UavNetwork};
     use envpg_nn::{Mlp, MlpSpec};
 
     use crate::features::ZetaInput;
 
     #[test]
     fn grad_log_matches_central_differences() {
-        let inst =
-            Instance { name: "t".into(), n_uav: 3, users: vec![[0.0, 0.0], [2.0, 1.0], [1.0, 3.0]], dest: [4.0, 3.0] };
+        let inst = UavInstance {
+            name: "t".into(),
+            n_uav: 3,
+            users: vec![[0.0, 0.0], [2.0, 1.0], [1.0, 3.0]],
+            dest: [4.0, 3.0],
+        };
         let net = UavNetwork::new(inst, 0.9, 100.0).unwrap();
         let zeta = [1.0, 0.5, 2.5, 1.5, 3.0, 2.0];
         for input in [ZetaInput::Centered, ZetaInput::Absolute, ZetaInput::Routed] {
-            let f = Features::new(&net, input, 0.3).centered(&[0.9, 0.6, 2.4, 1.4, 3.1, 2.1]);
+            let f = Features::new(&net, net.feature_map(), input).centered(&[0.9, 0.6, 2.4, 1.4, 3.1, 2.1]);
             let sets = ActionSets::new(&net);
             let spec = MlpSpec { onehot: f.onehot(), dense: f.dense_dim(), hidden: vec![16] };
             let actor = Mlp::<f32>::new(spec, &mut Streams::new(4).stream(Purpose::Init, 0, 0), false);

@@ -3,9 +3,15 @@
 //! `update(&Batch) -> Stats` takes the episodes of iteration k (generated with θ_k at ζ_k) and
 //! performs, in order: the critic's TD steps with a Polyak-averaged target critic, the EnvPG
 //! estimate of ∇ζ J_H(π_θk, ζ_k) (after warm-up), the actor step, the ζ step and the α decay.
-//! It never touches the environment: only the transitions and the observable features.
+//! It never steps the environment: it sees the transitions, the observable features and the
+//! sampler's hooks (design elements and their relocation, the design bounds).
+//!
+//! With γ < 1 the J estimates and both gradient estimates weight step t by γ^t, and episodes
+//! that reach the length cap are truncations, not loops.
 
-use envpg_core::{Observable, Purpose, Streams};
+use std::sync::Arc;
+
+use envpg_core::{DesignElement, FeatureMap, ParamMdp, Purpose, Streams, ZetaSpace};
 use envpg_nn::{Adam, Mlp};
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
@@ -121,8 +127,11 @@ pub struct LearnerState {
 }
 
 /// The learner.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct Learner {
+    /// The sampler, for its hooks only (relocation of idle design elements).
+    env: Arc<dyn ParamMdp>,
+    space: ZetaSpace,
     cfg: AcConfig,
     features: Features,
     sets: ActionSets,
@@ -138,8 +147,8 @@ pub struct Learner {
     visits: Vec<f64>,
     zeta_sum: Vec<f64>,
     zeta_count: u64,
-    /// States whose positions are read from ζ, with their ζ index.
-    zeta_states: Vec<(usize, usize)>,
+    /// The environment's design elements (points of ζ the process visits).
+    elements: Vec<DesignElement>,
     zeta: Vec<f64>,
     alpha: f64,
     k: u64,
@@ -159,14 +168,27 @@ struct Flat {
     on_policy: Vec<bool>,
 }
 
+impl std::fmt::Debug for Learner {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Learner").field("k", &self.k).field("alpha", &self.alpha).field("zeta", &self.zeta).finish()
+    }
+}
+
 impl Learner {
-    /// A fresh learner for `env` with design `zeta0`; networks are initialised from the `Init`
-    /// stream of `seed`.
-    pub fn new<E: Observable>(env: &E, cfg: AcConfig, seed: u64, zeta0: Vec<f64>) -> Self {
+    /// A fresh learner for `env` with design `zeta0`, on the default features or the
+    /// environment's own (`feature_map`); networks are initialised from the `Init` stream of
+    /// `seed`.
+    pub fn new(
+        env: Arc<dyn ParamMdp>,
+        feature_map: Option<Arc<dyn FeatureMap>>,
+        cfg: AcConfig,
+        seed: u64,
+        zeta0: Vec<f64>,
+    ) -> Self {
         assert_eq!(zeta0.len(), env.zeta_dim(), "zeta0 dimension");
-        let mut features = Features::new(env, cfg.zeta_input, cfg.sigma);
+        let mut features = Features::new(&*env, feature_map, cfg.zeta_input);
         features.set_center(&zeta0);
-        let sets = ActionSets::new(env);
+        let sets = ActionSets::new(&*env);
         let streams = Streams::new(seed);
         let mut rng = streams.stream(Purpose::Init, 0, 0);
         let actor = Net::new(&features, &cfg.hidden, &mut rng, true);
@@ -176,17 +198,18 @@ impl Learner {
         let critic_opt = Adam::new(critic.mlp.n_params(), cfg.critic_lr);
         let alpha = cfg.alpha0;
         let zeta_opt = Adam::new(zeta0.len(), cfg.zeta_lr);
-        let zeta_states = (0..env.n_states()).filter_map(|s| env.zeta_index(s).map(|i| (s, i))).collect();
         Self {
+            space: env.zeta_space().clone(),
+            elements: env.design_elements(),
             zeta_opt,
             visits: vec![0.0; env.n_states()],
             zeta_sum: vec![0.0; zeta0.len()],
             zeta_count: 0,
-            zeta_states,
             cfg,
             features,
             sets,
             gamma: env.gamma(),
+            env,
             streams,
             actor,
             critic,
@@ -371,11 +394,13 @@ impl Learner {
         for ep in &on {
             let mut ret = 0.0;
             let mut ret_h = 0.0;
+            let mut disc = 1.0;
             for t in 0..ep.len() {
                 let s = ep.s[t] as usize;
                 let i = self.sets.of(s).iter().position(|&a| a == ep.a[t] as usize).expect("validated");
-                ret += ep.cost[t] as f64;
-                ret_h += ep.cost[t] as f64 + alpha * table.of(s)[i].ln();
+                ret += disc * ep.cost[t] as f64;
+                ret_h += disc * (ep.cost[t] as f64 + alpha * table.of(s)[i].ln());
+                disc *= self.gamma;
             }
             stats.j_estimate += ret / n_on;
             stats.j_h_estimate += ret_h / n_on;
@@ -397,8 +422,10 @@ impl Learner {
                 stats.critic_loss = self.critic_step(&flat, &ln_pi, &mut table, step);
             }
         }
+        // Only an SSP loops: with γ < 1, a capped episode is a truncation.
         let capped_on = on.iter().filter(|e| e.capped).count();
-        let looping = cfg.loop_tolerance < 1.0 && capped_on as f64 > cfg.loop_tolerance * on.len() as f64;
+        let looping =
+            self.gamma == 1.0 && cfg.loop_tolerance < 1.0 && capped_on as f64 > cfg.loop_tolerance * on.len() as f64;
         stats.looping = looping;
         // The EnvPG estimate is for π_θk, so it uses a copy of the actor taken before the actor
         // step; the two are independent and run on two threads when the machine has them.
@@ -409,7 +436,8 @@ impl Learner {
             let job = nets.as_mut().map(|(actor, critic)| {
                 let on = &on;
                 let (features, sets, zeta) = (&features, &sets, &zeta);
-                scope.spawn(move || zeta_gradient(actor, critic, features, sets, zeta, on, cfg.zeta_estimator))
+                let gamma = self.gamma;
+                scope.spawn(move || zeta_gradient(actor, critic, features, sets, zeta, on, cfg.zeta_estimator, gamma))
             });
             if !flat.s.is_empty() {
                 for step in 0..cfg.actor_steps {
@@ -443,6 +471,7 @@ impl Learner {
                     self.zeta_opt.step(&mut self.zeta, &clipped);
                 }
             }
+            self.space.project(&mut self.zeta);
             stats.grad_norm = Some(norm);
             stats.zeta_grad = Some(g);
             self.features.set_center(&self.zeta);
@@ -461,10 +490,10 @@ impl Learner {
     }
 
     /// Updates the visit averages with this iteration's on-policy states and, on schedule,
-    /// moves the least-visited idle design element to the midpoint of the costliest on-policy
-    /// hop of this iteration. The move is J-neutral (an unvisited UAV contributes nothing to J)
-    /// and offers a relay exactly where one saves the most; a midpoint keeps it away from both
-    /// ends, so it cannot form a cheap loop that the entropy term would reward.
+    /// moves the least-visited idle design element to where the environment says it would
+    /// serve the costliest on-policy hop of this iteration ([`ParamMdp::relocate`]). The move is
+    /// J-neutral (an unvisited element contributes nothing to J) and gives the gradient an
+    /// element to work with: an idle element's ζ-gradient is exactly zero.
     fn track_and_relocate(&mut self, on: &[&Episode]) -> Option<u32> {
         const DECAY: f64 = 0.95;
         self.visits.iter_mut().for_each(|v| *v *= DECAY);
@@ -478,13 +507,14 @@ impl Learner {
         if every == 0 || self.k < self.cfg.warmup as u64 || (self.k - self.cfg.warmup as u64) % every != every - 1 {
             return None;
         }
-        let busy_v = self.zeta_states.iter().map(|&(s, _)| self.visits[s]).fold(0.0, f64::max);
+        let visits = |e: &DesignElement| e.states.iter().map(|&s| self.visits[s]).sum::<f64>();
+        let busy_v = self.elements.iter().map(visits).fold(0.0, f64::max);
         let (idle, idle_v) =
-            self.zeta_states.iter().map(|&(s, i)| ((s, i), self.visits[s])).min_by(|a, b| a.1.total_cmp(&b.1))?;
+            self.elements.iter().enumerate().map(|(i, e)| (i, visits(e))).min_by(|a, b| a.1.total_cmp(&b.1))?;
         if busy_v <= 0.0 || idle_v >= self.cfg.relocate_below * busy_v {
             return None;
         }
-        // The costliest on-policy hop (observed cost; ends' positions are observable).
+        // The costliest on-policy hop (observed cost between observed states).
         let mut best: Option<(f64, usize, usize)> = None;
         for ep in on {
             for t in 0..ep.len() {
@@ -495,15 +525,20 @@ impl Learner {
             }
         }
         let (_, from, to) = best?;
-        let (a, b) = (self.features.position(from, &self.zeta), self.features.position(to, &self.zeta));
-        for c in 0..2 {
-            self.zeta[idle.1 + c] = 0.5 * (a[c] + b[c]);
-            self.zeta_opt.m[idle.1 + c] = 0.0;
-            self.zeta_opt.v[idle.1 + c] = 0.0;
+        let element = &self.elements[idle];
+        let coords = self.env.relocate(element, &self.zeta, from, to)?;
+        for (c, z) in element.coords.clone().zip(coords) {
+            self.zeta[c] = z;
+            self.zeta_opt.m[c] = 0.0;
+            self.zeta_opt.v[c] = 0.0;
         }
-        self.visits[idle.0] = self.cfg.relocate_below * busy_v;
+        self.space.project(&mut self.zeta);
+        let share = self.cfg.relocate_below * busy_v / element.states.len() as f64;
+        for &s in &element.states {
+            self.visits[s] = share;
+        }
         self.features.set_center(&self.zeta);
-        Some(idle.0 as u32)
+        Some(element.states[0] as u32)
     }
 
     /// ln π_θk(a_i|s_i, ζ_pert,i) for every transition (the entropy term of the TD targets).
@@ -661,7 +696,7 @@ impl Learner {
     }
 
     /// The paper's entropy-regularised policy gradient on the on-policy episodes at ζ_k:
-    /// `∇θ J_H ≈ (1/M) Σ_episodes Σ_t (Q_φ(s_t,a_t,ζ_k) + α) ∇θ ln π_θ(a_t|s_t,ζ_k)`.
+    /// `∇θ J_H ≈ (1/M) Σ_episodes Σ_t γ^t (Q_φ(s_t,a_t,ζ_k) + α) ∇θ ln π_θ(a_t|s_t,ζ_k)`.
     fn actor_pg_step(&mut self, on: &[&Episode]) -> f64 {
         let zeta = self.zeta.clone();
         let (cols, taken) = self.on_policy_columns(on, &zeta);
@@ -672,10 +707,10 @@ impl Learner {
         let mut dlogit = vec![0.0f32; cols.len()];
         let mut surrogate = 0.0;
         let mut pi = Vec::new();
-        for &(r_start, m, k_taken) in &taken {
+        for &(r_start, m, k_taken, disc) in &taken {
             pi.resize(m, 0.0);
             softmax(&logits[r_start..r_start + m], &mut pi);
-            let w = q[r_start + k_taken] as f64 + self.alpha;
+            let w = disc * (q[r_start + k_taken] as f64 + self.alpha);
             surrogate += w * pi[k_taken].max(f64::MIN_POSITIVE).ln() / m_eps;
             for j in 0..m {
                 let ind = if j == k_taken { 1.0 } else { 0.0 };
@@ -697,9 +732,9 @@ impl Learner {
     }
 
     /// Columns of every valid action of every on-policy step at `zeta`, and per step
-    /// `(first column, number of actions, index of the taken action)`.
-    fn on_policy_columns(&self, on: &[&Episode], zeta: &[f64]) -> (Columns, Vec<(usize, usize, usize)>) {
-        on_policy_columns(&self.features, &self.sets, on, zeta)
+    /// `(first column, number of actions, index of the taken action, γ^t)`.
+    fn on_policy_columns(&self, on: &[&Episode], zeta: &[f64]) -> (Columns, Vec<Taken>) {
+        on_policy_columns(&self.features, &self.sets, on, zeta, self.gamma)
     }
 
     /// The EnvPG estimate of ∇ζ J_H(π_θk, ζ_k) from the on-policy episodes (eq. entropy_envpg),
@@ -726,21 +761,27 @@ impl Learner {
 
     /// [`Learner::zeta_gradient`] with an explicit estimator (for variance studies).
     pub fn zeta_gradient_with(&mut self, on: &[&Episode], estimator: ZetaEstimator) -> Vec<f64> {
-        zeta_gradient(&mut self.actor, &mut self.critic, &self.features, &self.sets, &self.zeta, on, estimator)
+        let gamma = self.gamma;
+        zeta_gradient(&mut self.actor, &mut self.critic, &self.features, &self.sets, &self.zeta, on, estimator, gamma)
     }
 }
 
-/// Columns of every valid action of every on-policy step at `zeta`, and per step
-/// `(first column, number of actions, index of the taken action)`.
+/// One on-policy step's columns: (first column, number of actions, index of the taken action,
+/// its discount γ^t).
+type Taken = (usize, usize, usize, f64);
+
+/// Columns of every valid action of every on-policy step at `zeta`, and per step its [`Taken`].
 fn on_policy_columns(
     features: &Features,
     sets: &ActionSets,
     on: &[&Episode],
     zeta: &[f64],
-) -> (Columns, Vec<(usize, usize, usize)>) {
+    gamma: f64,
+) -> (Columns, Vec<Taken>) {
     let mut cols = Columns::default();
     let mut taken = Vec::new();
     for ep in on {
+        let mut disc = 1.0;
         for t in 0..ep.len() {
             let s = ep.s[t] as usize;
             let acts = sets.of(s);
@@ -749,13 +790,16 @@ fn on_policy_columns(
                 cols.push(features, s, a, zeta, 0);
             }
             let k = acts.iter().position(|&a| a == ep.a[t] as usize).expect("validated");
-            taken.push((start, acts.len(), k));
+            taken.push((start, acts.len(), k, disc));
+            disc *= gamma;
         }
     }
     (cols, taken)
 }
 
-/// The EnvPG estimate with networks passed explicitly, so it can run beside the actor step.
+/// The EnvPG estimate with networks passed explicitly, so it can run beside the actor step;
+/// step t of an episode is weighted by γ^t.
+#[allow(clippy::too_many_arguments)]
 fn zeta_gradient(
     actor: &mut Net,
     critic: &mut Net,
@@ -764,9 +808,10 @@ fn zeta_gradient(
     zeta: &[f64],
     on: &[&Episode],
     estimator: ZetaEstimator,
+    gamma: f64,
 ) -> Vec<f64> {
     let d = zeta.len();
-    let (cols, taken) = on_policy_columns(features, sets, on, zeta);
+    let (cols, taken) = on_policy_columns(features, sets, on, zeta, gamma);
     let (mut logits, mut q) = (Vec::new(), Vec::new());
     actor.eval(&cols, &mut logits);
     critic.eval(&cols, &mut q);
@@ -774,7 +819,7 @@ fn zeta_gradient(
     let mut d_critic = vec![0.0f32; cols.len()];
     let mut d_actor = vec![0.0f32; cols.len()];
     let mut pi = Vec::new();
-    for &(r0, m, kt) in &taken {
+    for &(r0, m, kt, disc) in &taken {
         pi.resize(m, 0.0);
         softmax(&logits[r0..r0 + m], &mut pi);
         let qs: Vec<f64> = (0..m).map(|j| q[r0 + j] as f64).collect();
@@ -787,8 +832,8 @@ fn zeta_gradient(
                 ZetaEstimator::Expected => (pi[j], pi[j] * (qs[j] - v)),
                 ZetaEstimator::Corollary => (pi[j], 0.0),
             };
-            d_critic[r0 + j] = dc as f32;
-            d_actor[r0 + j] = da as f32;
+            d_critic[r0 + j] = (disc * dc) as f32;
+            d_actor[r0 + j] = (disc * da) as f32;
         }
     }
     let mut g = vec![0.0; d];

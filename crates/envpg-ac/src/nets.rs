@@ -20,7 +20,7 @@ pub struct ActionSets {
 
 impl ActionSets {
     /// Reads the valid actions of every state of `env`.
-    pub fn new<E: ParamMdp>(env: &E) -> Self {
+    pub fn new<E: ParamMdp + ?Sized>(env: &E) -> Self {
         let mut start = vec![0];
         let mut actions = Vec::new();
         let mut terminal = Vec::new();
@@ -98,8 +98,7 @@ impl Columns {
     /// Appends the column `(s, a, zeta)`; `zeta_id` names `zeta` for [`Columns::zeta_id`].
     pub fn push(&mut self, f: &Features, s: usize, a: usize, zeta: &[f64], zeta_id: u32) {
         self.dense_dim = f.dense_dim();
-        self.onehot.push(s as u32);
-        self.onehot.push(a as u32);
+        f.push_onehot(s, a, &mut self.onehot);
         let base = self.dense.len();
         self.dense.resize(base + self.dense_dim, 0.0);
         f.write(s, a, zeta, &mut self.dense[base..]);

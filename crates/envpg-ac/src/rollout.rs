@@ -1,6 +1,8 @@
 //! Rollouts: the worker side of Algorithm 1. An episode touches the environment only through
-//! [`ParamMdp::step`]; every draw comes from the episode's own stream `(seed, k, e)`, so it is
-//! the same whoever runs it.
+//! its sampler ([`ParamMdp::sample_initial`], [`ParamMdp::step`], …); every draw comes from the
+//! episode's own stream `(seed, k, e)`, so it is the same whoever runs it. Each step's
+//! perturbed design ζ_k + N(0, σ²I) is projected onto the design bounds, so the environment
+//! only ever sees designs inside them.
 
 use envpg_core::{ParamMdp, Purpose, Streams};
 use rand::{Rng, RngExt};
@@ -81,7 +83,7 @@ pub fn sample_index<R: Rng + ?Sized>(probs: &[f64], rng: &mut R) -> usize {
 
 /// Runs episode `(k, e)` of `kind` at design `zeta_k` with policy `table`.
 #[allow(clippy::too_many_arguments)]
-pub fn run_episode<E: ParamMdp>(
+pub fn run_episode<E: ParamMdp + ?Sized>(
     env: &E,
     sets: &ActionSets,
     table: &mut PolicyTable,
@@ -103,6 +105,8 @@ pub fn run_episode<E: ParamMdp>(
     };
     let mut zeta = vec![0.0; d];
     let sigma = cfg.sigma_at(k);
+    let space = env.zeta_space();
+    let bounded = space.is_bounded();
     for _ in 0..cfg.episode_cap {
         let actions = sets.of(s);
         let k_a = if explore && rng.random::<f64>() < cfg.explore_eps {
@@ -114,6 +118,9 @@ pub fn run_episode<E: ParamMdp>(
         for (z, zk) in zeta.iter_mut().zip(zeta_k) {
             let n: f64 = rng.sample(StandardNormal);
             *z = zk + sigma * n;
+        }
+        if bounded {
+            space.project(&mut zeta);
         }
         let (s2, c) = env.step(s, a, &zeta, &mut rng);
         ep.s.push(s as u32);
@@ -132,7 +139,7 @@ pub fn run_episode<E: ParamMdp>(
 
 /// Runs all episodes of iteration `k` in index order: `cfg.episodes` on-policy, then
 /// `cfg.explore_episodes` exploration episodes.
-pub fn run_iteration<E: ParamMdp>(
+pub fn run_iteration<E: ParamMdp + ?Sized>(
     env: &E,
     sets: &ActionSets,
     table: &mut PolicyTable,

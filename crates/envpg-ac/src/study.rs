@@ -3,7 +3,7 @@
 //! direction with the exact gradient of J_H for the same policy (computed from the model, for
 //! reporting only).
 
-use envpg_core::{Observable, Streams, UavNetwork};
+use envpg_core::{ModelMdp, Registry, Streams};
 use envpg_model::{
     Snapshot, SoftSolution, accumulate_local, corollary_gradient, evaluate, mu_dense, theorem_gradient, visits,
 };
@@ -69,9 +69,9 @@ pub struct AuditPart {
 /// [`AuditPart`]s by where the pair's state sits, and the critic's value error.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct CriticAudit {
-    /// Pairs at states with a fixed position (the users).
+    /// Pairs at states that are not at a design element (in the UAV network, the users).
     pub fixed_states: AuditPart,
-    /// Pairs at states whose position is part of ζ (the UAVs).
+    /// Pairs at states at a design element (in the UAV network, the UAVs).
     pub design_states: AuditPart,
     /// Visit-weighted RMS error of Q_φ(s, a, ζ) against the exact soft Q of the frozen policy.
     pub value_rmse: f64,
@@ -86,15 +86,17 @@ fn cos(a: &[f64], b: &[f64]) -> f64 {
 
 /// Trains `spec` for `train` iterations (its own ζ schedule applies), then estimates the
 /// ζ-gradient with every estimator on `samples` independent batches drawn at the frozen
-/// (θ, φ, ζ, α).
-pub fn estimator_study(spec: &RunSpec, train: usize, samples: usize) -> Result<Study, TrainError> {
-    let (net, _, mut learner) = spec.start()?;
+/// (θ, φ, ζ, α). Needs the environment's model (for the exact gradients it reports against).
+pub fn estimator_study(spec: &RunSpec, registry: &Registry, train: usize, samples: usize) -> Result<Study, TrainError> {
+    let (env, _, mut learner) = spec.start(registry)?;
+    let model = env.model()?;
+    let net = env.sampler();
     let streams = Streams::new(spec.seed);
     let sets = learner.action_sets().clone();
-    advance(&net, &mut learner, &spec.config, &streams, train)?;
+    advance(net, &mut learner, &spec.config, &streams, train)?;
     let zeta = learner.zeta().to_vec();
     let alpha = learner.alpha();
-    let (exact, exact_fixed) = exact_gradients(&net, &learner, &zeta, alpha);
+    let (exact, exact_fixed) = exact_gradients(model, &learner, &zeta, alpha);
     let kinds = [ZetaEstimator::Sampled, ZetaEstimator::Baseline, ZetaEstimator::Expected, ZetaEstimator::Corollary];
     let d = zeta.len();
     let mut sums = vec![(vec![0.0; d], vec![0.0; d]); kinds.len()];
@@ -102,7 +104,7 @@ pub fn estimator_study(spec: &RunSpec, train: usize, samples: usize) -> Result<S
     for i in 0..samples {
         let k = (train + 1_000_000 + i) as u64;
         let mut table = learner.policy_table();
-        let episodes = run_iteration(&net, &sets, &mut table, &zeta, &spec.config, &streams, k);
+        let episodes = run_iteration(net, &sets, &mut table, &zeta, &spec.config, &streams, k);
         let on: Vec<_> = episodes.iter().filter(|e| !e.explore).collect();
         for (j, &kind) in kinds.iter().enumerate() {
             let g = learner.zeta_gradient_with(&on, kind);
@@ -132,14 +134,25 @@ pub fn estimator_study(spec: &RunSpec, train: usize, samples: usize) -> Result<S
             }
         })
         .collect();
-    let critic = critic_audit(&net, &mut learner, &zeta, alpha);
+    let critic = critic_audit(model, &mut learner, &zeta, alpha);
     Ok(Study { trained: train, samples, exact, exact_fixed_policy: exact_fixed, estimators, critic })
 }
 
 /// The [`CriticAudit`] of `learner` at its design `zeta` (`None` if the frozen policy does not
 /// terminate, so that visits are undefined).
-pub fn critic_audit(net: &UavNetwork, learner: &mut Learner, zeta: &[f64], alpha: f64) -> Option<CriticAudit> {
+pub fn critic_audit<M: ModelMdp + ?Sized>(
+    net: &M,
+    learner: &mut Learner,
+    zeta: &[f64],
+    alpha: f64,
+) -> Option<CriticAudit> {
     let snap = Snapshot::build(net, zeta);
+    let mut at_element = vec![false; net.n_states()];
+    for e in net.design_elements() {
+        for s in e.states {
+            at_element[s] = true;
+        }
+    }
     let pi = learner.policy_table().full().to_vec();
     let v = evaluate(&snap, &pi, alpha).ok()?;
     let rho = visits(&snap, &pi, &mu_dense(&snap)).ok()?;
@@ -150,9 +163,8 @@ pub fn critic_audit(net: &UavNetwork, learner: &mut Learner, zeta: &[f64], alpha
         snap.outs(sa).map(|o| snap.prob[o] * (snap.cost[o] + snap.gamma * v.v[snap.next[o]])).sum::<f64>() + soft
     };
     let part = |learner: &mut Learner, design: bool| {
-        let w: Vec<f64> = (0..snap.n_pairs())
-            .map(|sa| if net.zeta_index(states[sa]).is_some() == design { weight(sa) } else { 0.0 })
-            .collect();
+        let w: Vec<f64> =
+            (0..snap.n_pairs()).map(|sa| if at_element[states[sa]] == design { weight(sa) } else { 0.0 }).collect();
         let mut u = vec![0.0; snap.next.len()];
         for sa in 0..snap.n_pairs() {
             for o in snap.outs(sa) {
@@ -190,7 +202,12 @@ pub fn critic_audit(net: &UavNetwork, learner: &mut Learner, zeta: &[f64], alpha
 
 /// Exact ∇ζ J_H of the learner's current policy at `zeta`: all terms of the theorem, and with
 /// the policy held fixed.
-pub fn exact_gradients(net: &UavNetwork, learner: &Learner, zeta: &[f64], alpha: f64) -> (Vec<f64>, Vec<f64>) {
+pub fn exact_gradients<M: ModelMdp + ?Sized>(
+    net: &M,
+    learner: &Learner,
+    zeta: &[f64],
+    alpha: f64,
+) -> (Vec<f64>, Vec<f64>) {
     let features = learner.features().centered(zeta);
     let pol = ActorPolicy::new(learner.actor(), &features, learner.action_sets());
     let full = theorem_gradient(net, zeta, &pol, alpha).unwrap_or_else(|_| vec![f64::NAN; zeta.len()]);

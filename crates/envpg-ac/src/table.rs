@@ -115,8 +115,10 @@ impl<'a> PolicyTable<'a> {
 
 #[cfg(test)]
 mod tests {
-    use envpg_core::instance::{GenerateSpec, generate};
-    use envpg_core::{ParamMdp, UavNetwork};
+    use std::sync::Arc;
+
+    use envpg_core::{Env, ParamMdp};
+    use envpg_envs::uav::{GenerateSpec, UavNetwork, generate};
 
     use crate::{AcConfig, Learner};
 
@@ -124,8 +126,9 @@ mod tests {
     fn greedy_actions_name_the_one_hot_entries_of_the_greedy_policy() {
         let spec =
             GenerateSpec { name: "t".into(), n_users: 12, n_uav: 3, clusters: 2, side: 10.0, spread: 0.8, seed: 4 };
-        let net = UavNetwork::new(generate(&spec).unwrap(), 0.9, 100.0).unwrap();
-        let learner = Learner::new(&net, AcConfig { hidden: vec![8], ..Default::default() }, 2, vec![2.0; 6]);
+        let net = Arc::new(UavNetwork::new(generate(&spec).unwrap(), 0.9, 100.0).unwrap());
+        let cfg = AcConfig { hidden: vec![8], ..Default::default() };
+        let learner = Learner::new(net.clone(), net.feature_map(), cfg, 2, vec![2.0; 6]);
         let mut table = learner.policy_table();
         let (one_hot, actions) = (table.greedy(), table.greedy_actions());
         let sets = learner.action_sets();

@@ -7,8 +7,9 @@
 
 use std::time::Instant;
 
+use envpg_core::policy::policy_rows;
 use envpg_core::result::{HistoryRow, ResultFile, SCHEMA};
-use envpg_core::{Instance, ParamMdp, Streams, UavNetwork};
+use envpg_core::{InstanceError, LoadedEnv, ModelMdp, ParamMdp, Registry, Streams};
 use envpg_model::{Snapshot, evaluate};
 use serde::{Deserialize, Serialize};
 
@@ -23,12 +24,8 @@ use crate::zeta0::initial_design;
 /// Everything that defines a run (and is stored in its result file).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunSpec {
-    /// The instance.
-    pub instance: Instance,
-    /// κ.
-    pub kappa: f64,
-    /// η.
-    pub eta: f64,
+    /// The instance in canonical form: its environment, fields and every parameter.
+    pub instance: serde_json::Value,
     /// Seed.
     pub seed: u64,
     /// Algorithm settings.
@@ -41,9 +38,9 @@ pub enum TrainError {
     /// Settings out of range.
     #[error(transparent)]
     Config(#[from] crate::config::ConfigError),
-    /// κ or η out of range.
+    /// The instance (or its environment) is unusable.
     #[error(transparent)]
-    Params(#[from] envpg_core::UavParamError),
+    Instance(#[from] InstanceError),
     /// The initial design is unusable.
     #[error("initial design: {0}")]
     Zeta0(String),
@@ -53,16 +50,36 @@ pub enum TrainError {
     /// The run was stopped.
     #[error("stopped at iteration {0}")]
     Stopped(u64),
+    /// A model-only step (the estimator study) on an environment without a model.
+    #[error(transparent)]
+    NoModel(#[from] envpg_core::NoModel),
 }
 
 impl RunSpec {
+    /// The run of `config` with `seed` on `env`.
+    pub fn new(env: &LoadedEnv, seed: u64, config: AcConfig) -> Self {
+        Self { instance: env.instance.clone(), seed, config }
+    }
+
+    /// The environment of the run, built by `registry`.
+    pub fn load(&self, registry: &Registry) -> Result<LoadedEnv, TrainError> {
+        Ok(registry.from_value(&self.instance, "<run>")?)
+    }
+
     /// Validates and builds the environment, the initial design and a fresh learner.
-    pub fn start(&self) -> Result<(UavNetwork, Vec<f64>, Learner), TrainError> {
+    pub fn start(&self, registry: &Registry) -> Result<(LoadedEnv, Vec<f64>, Learner), TrainError> {
+        let env = self.load(registry)?;
+        let (zeta0, learner) = self.start_on(&env)?;
+        Ok((env, zeta0, learner))
+    }
+
+    /// As [`RunSpec::start`], on an environment already built from this spec's instance.
+    pub fn start_on(&self, env: &LoadedEnv) -> Result<(Vec<f64>, Learner), TrainError> {
         self.config.validate()?;
-        let net = UavNetwork::new(self.instance.clone(), self.kappa, self.eta)?;
-        let zeta0 = initial_design(&self.instance, &self.config.zeta0, self.seed).map_err(TrainError::Zeta0)?;
-        let learner = Learner::new(&net, self.config.clone(), self.seed, zeta0.clone());
-        Ok((net, zeta0, learner))
+        let zeta0 = initial_design(env.sampler(), &self.config.zeta0, self.seed).map_err(TrainError::Zeta0)?;
+        let learner =
+            Learner::new(env.shared_sampler(), env.env.feature_map(), self.config.clone(), self.seed, zeta0.clone());
+        Ok((zeta0, learner))
     }
 }
 
@@ -87,6 +104,7 @@ pub struct Progress {
 #[derive(Debug)]
 pub struct Recorder {
     spec: RunSpec,
+    env: LoadedEnv,
     sets: ActionSets,
     zeta0: Vec<f64>,
     history: Vec<HistoryRow>,
@@ -99,11 +117,12 @@ pub struct Recorder {
 }
 
 impl Recorder {
-    /// A recorder for `spec` starting from `zeta0`.
-    pub fn new(spec: &RunSpec, net: &UavNetwork, zeta0: &[f64]) -> Self {
+    /// A recorder for `spec` on `env` starting from `zeta0`.
+    pub fn new(spec: &RunSpec, env: &LoadedEnv, zeta0: &[f64]) -> Self {
         Self {
             spec: spec.clone(),
-            sets: ActionSets::new(net),
+            env: env.clone(),
+            sets: ActionSets::new(env.sampler()),
             zeta0: zeta0.to_vec(),
             history: Vec::new(),
             transitions: 0,
@@ -145,14 +164,16 @@ impl Recorder {
         self.capped
     }
 
-    /// Records iteration `stats.k`, run at `zeta_k` with policy `table`.
-    pub fn record(&mut self, net: &UavNetwork, zeta_k: &[f64], table: &mut PolicyTable, stats: &Stats) -> Progress {
+    /// Records iteration `stats.k`, run at `zeta_k` with policy `table`; with a model, the
+    /// exact J of (ζ_k, greedy π_k) every `eval_every` iterations, for the record only.
+    pub fn record(&mut self, zeta_k: &[f64], table: &mut PolicyTable, stats: &Stats) -> Progress {
         self.transitions += stats.transitions as u64;
         self.capped += stats.capped as u64;
         let cfg = &self.spec.config;
         let last = stats.k + 1 == cfg.iterations as u64;
-        let j_exact = if stats.k.is_multiple_of(cfg.eval_every as u64) || last {
-            let j = exact_greedy_j(net, &self.sets, zeta_k, table).ok();
+        let model = self.env.env.model();
+        let j_exact = if let Some(model) = model.filter(|_| stats.k.is_multiple_of(cfg.eval_every as u64) || last) {
+            let j = exact_greedy_j(model, &self.sets, zeta_k, table).ok();
             self.last_exact = j.or(self.last_exact);
             j
         } else {
@@ -187,48 +208,62 @@ impl Recorder {
     }
 
     /// The result file of the finished run: final ζ, greedy policy with its exact J, the soft
-    /// policy with its exact J_H at the final α.
+    /// policy with its exact J_H at the final α (exact scores need the environment's model;
+    /// without one `J` is null and `j_error` says why).
     ///
     /// Both policies are the actor's at the reported ζ of Algorithm 1. With
     /// `polish_iterations > 0` the design is then polished for the greedy one
-    /// ([`crate::polish`]), whose routing the polish may improve (`polish_routing`): the
-    /// greedy policy reported is the routing the design was polished for, and both policies
-    /// are scored at the polished ζ; `details.polish` keeps the design before the polish.
-    pub fn finish(&self, net: &UavNetwork, learner: &Learner, method: &str, details: serde_json::Value) -> ResultFile {
+    /// ([`crate::polish`]), whose policy the polish may improve (`polish_policy_rounds`): the
+    /// greedy policy reported is the one the design was polished for, and both policies are
+    /// scored at the polished ζ; `details.polish` keeps the design before the polish with its
+    /// greedy policy and their exact J (`J_before`): Algorithm 1 alone.
+    pub fn finish(&self, learner: &Learner, method: &str, details: serde_json::Value) -> ResultFile {
+        let env = self.env.sampler();
+        let model = self.env.env.model();
         let before = learner.reported_zeta();
         let mut table = PolicyTable::new(learner.actor(), learner.features(), learner.action_sets(), &before);
         let started = Instant::now();
         let (zeta, greedy, polish) = if self.spec.config.polish_iterations > 0 {
             let settings = self.spec.config.polish();
             let streams = Streams::new(self.spec.seed);
-            // Each start begins with the actor's greedy routing at that design.
-            let starts: Vec<(Vec<f64>, Vec<usize>)> = polish::candidate_starts(&before, &settings, &streams)
-                .into_iter()
-                .map(|z| {
-                    let actions = PolicyTable::new(learner.actor(), learner.features(), learner.action_sets(), &z)
-                        .greedy_actions();
-                    (z, actions)
-                })
-                .collect();
-            let (z, action, report) = polish::polish_candidates(net, &starts, &settings, &streams);
+            // Each start begins with the actor's greedy policy at that design.
+            let starts: Vec<(Vec<f64>, Vec<usize>)> =
+                polish::candidate_starts(&before, &settings, &streams, env.zeta_space())
+                    .into_iter()
+                    .map(|z| {
+                        let actions = PolicyTable::new(learner.actor(), learner.features(), learner.action_sets(), &z)
+                            .greedy_actions();
+                        (z, actions)
+                    })
+                    .collect();
+            let (z, action, report) = polish::polish_candidates(env, &starts, &settings, &streams);
+            let mut report = serde_json::to_value(&report).expect("report serializes");
+            let greedy_before = table.greedy();
+            let (j_before, err_before) = exact_j(model, &before, &greedy_before, 0.0, self.env.name);
+            if let Some(obj) = report.as_object_mut() {
+                obj.insert("J_before".into(), j_before.into());
+                if let Some(e) = err_before {
+                    obj.insert("j_error_before".into(), e.into());
+                }
+                obj.insert(
+                    "policy_before".into(),
+                    serde_json::to_value(policy_rows(env, &greedy_before)).expect("rows"),
+                );
+            }
             (z, self.sets.one_hot(&action), Some(report))
         } else {
             (before, table.greedy(), None)
         };
         let polish_seconds = started.elapsed().as_secs_f64();
-        let snap = Snapshot::build(net, &zeta);
-        let (j, j_error) = match evaluate(&snap, &greedy, 0.0) {
-            Ok(v) => (Some(v.j), None),
-            Err(e) => (None, Some(e.to_string())),
-        };
+        let (j, j_error) = exact_j(model, &zeta, &greedy, 0.0, self.env.name);
         let alpha = learner.alpha();
         let soft = table.full().to_vec();
-        let j_h = evaluate(&snap, &soft, alpha).ok().map(|v| v.j);
+        let (j_h, _) = exact_j(model, &zeta, &soft, alpha, self.env.name);
         let seconds = self.seconds() + polish_seconds;
         let mut details = details;
         if let Some(obj) = details.as_object_mut() {
-            if let Some(report) = &polish {
-                obj.insert("polish".into(), serde_json::to_value(report).expect("report serializes"));
+            if let Some(report) = polish {
+                obj.insert("polish".into(), report);
             }
             obj.insert("transitions".into(), self.transitions.into());
             obj.insert("capped_episodes".into(), self.capped.into());
@@ -238,18 +273,17 @@ impl Recorder {
         ResultFile {
             schema: SCHEMA.into(),
             method: method.into(),
-            instance: self.spec.instance.clone(),
-            kappa: self.spec.kappa,
-            eta: self.spec.eta,
+            env: self.env.name.into(),
+            instance: self.env.instance.clone(),
             seed: self.spec.seed,
             zeta,
             zeta0: self.zeta0.clone(),
-            policy: rows(net, &self.sets, &greedy),
+            policy: policy_rows(env, &greedy),
             j,
             j_error,
             j_h,
             alpha_final: Some(alpha),
-            policy_soft: Some(rows(net, &self.sets, &soft)),
+            policy_soft: Some(policy_rows(env, &soft)),
             seconds: Some(seconds),
             config: Some(serde_json::to_value(&self.spec.config).expect("config serializes")),
             details: Some(details),
@@ -258,35 +292,39 @@ impl Recorder {
     }
 }
 
+/// Exact J (α = 0) or J_H of the per-pair policy `pi` at `zeta`, or why there is none.
+fn exact_j(
+    model: Option<&dyn ModelMdp>,
+    zeta: &[f64],
+    pi: &[f64],
+    alpha: f64,
+    env: &str,
+) -> (Option<f64>, Option<String>) {
+    let Some(model) = model else {
+        return (None, Some(envpg_core::NoModel(env.to_owned()).to_string()));
+    };
+    match evaluate(&Snapshot::build(model, zeta), pi, alpha) {
+        Ok(v) => (Some(v.j), None),
+        Err(e) => (None, Some(e.to_string())),
+    }
+}
+
 /// Exact J of (ζ, greedy of `table`), for reporting.
-pub fn exact_greedy_j(
-    net: &UavNetwork,
+pub fn exact_greedy_j<M: ModelMdp + ?Sized>(
+    model: &M,
     sets: &ActionSets,
     zeta: &[f64],
     table: &mut PolicyTable,
 ) -> Result<f64, envpg_model::ModelError> {
-    let snap = Snapshot::build(net, zeta);
+    let snap = Snapshot::build(model, zeta);
     debug_assert_eq!(snap.n_pairs(), sets.n_pairs());
     Ok(evaluate(&snap, &table.greedy(), 0.0)?.j)
 }
 
-/// Result-file rows (users, then UAVs; M+1 actions) of a per-pair policy.
-pub fn rows(net: &UavNetwork, sets: &ActionSets, pairs: &[f64]) -> Vec<Vec<f64>> {
-    (0..net.n_users() + net.n_uav())
-        .map(|s| {
-            let mut row = vec![0.0; net.n_actions()];
-            for (i, &a) in sets.of(s).iter().enumerate() {
-                row[a] = pairs[sets.first(s) + i];
-            }
-            row
-        })
-        .collect()
-}
-
-/// Trains `learner` serially for `iterations` more iterations on `net` (each: the policy table
+/// Trains `learner` serially for `iterations` more iterations on `env` (each: the policy table
 /// at (θ_k, ζ_k), the iteration's episodes, one update), without recording anything.
-pub fn advance(
-    net: &UavNetwork,
+pub fn advance<E: ParamMdp + ?Sized>(
+    env: &E,
     learner: &mut Learner,
     config: &AcConfig,
     streams: &Streams,
@@ -297,30 +335,35 @@ pub fn advance(
         let k = learner.k();
         let mut table = learner.policy_table();
         let zeta = learner.zeta().to_vec();
-        let episodes = run_iteration(net, &sets, &mut table, &zeta, config, streams, k);
+        let episodes = run_iteration(env, &sets, &mut table, &zeta, config, streams, k);
         learner.update(&Batch { k, episodes })?;
     }
     Ok(())
 }
 
-/// Runs Algorithm 1 in this process: for each k, the policy table at (θ_k, ζ_k), all episodes
-/// of the iteration in index order, one learner update. `progress` sees every iteration and
-/// may stop the run by returning `false`.
-pub fn train(spec: &RunSpec, mut progress: impl FnMut(&Progress) -> bool) -> Result<ResultFile, TrainError> {
-    let (net, zeta0, mut learner) = spec.start()?;
-    let mut rec = Recorder::new(spec, &net, &zeta0);
+/// Runs Algorithm 1 in this process on the environment `registry` builds from the spec's
+/// instance: for each k, the policy table at (θ_k, ζ_k), all episodes of the iteration in index
+/// order, one learner update. `progress` sees every iteration and may stop the run by
+/// returning `false`.
+pub fn train(
+    spec: &RunSpec,
+    registry: &Registry,
+    mut progress: impl FnMut(&Progress) -> bool,
+) -> Result<ResultFile, TrainError> {
+    let (env, zeta0, mut learner) = spec.start(registry)?;
+    let mut rec = Recorder::new(spec, &env, &zeta0);
     let streams = Streams::new(spec.seed);
     let sets = learner.action_sets().clone();
     while (learner.k() as usize) < spec.config.iterations {
         let k = learner.k();
         let mut table = learner.policy_table();
         let zeta_k = learner.zeta().to_vec();
-        let episodes = run_iteration(&net, &sets, &mut table, &zeta_k, &spec.config, &streams, k);
+        let episodes = run_iteration(env.sampler(), &sets, &mut table, &zeta_k, &spec.config, &streams, k);
         let stats = learner.update(&Batch { k, episodes })?;
-        let p = rec.record(&net, &zeta_k, &mut table, &stats);
+        let p = rec.record(&zeta_k, &mut table, &stats);
         if !progress(&p) {
             return Err(TrainError::Stopped(k));
         }
     }
-    Ok(rec.finish(&net, &learner, "envpg-ac", serde_json::json!({ "mode": "in-process" })))
+    Ok(rec.finish(&learner, "envpg-ac", serde_json::json!({ "mode": "in-process" })))
 }

@@ -1,9 +1,20 @@
-//! Shared argument parsing and error → exit-code mapping.
+//! Shared argument parsing, the registry the tools run with, and error → exit-code mapping.
 
 use std::process::ExitCode;
 
-use anyhow::{Context, Result, bail};
-use envpg_core::{Instance, ParamMdp, ResultFile, UavNetwork};
+use anyhow::{Result, bail};
+use clap::Args;
+use envpg_core::{LoadedEnv, Registry, ResultFile};
+
+/// What every command runs with: the registered environments, and the launcher binary that
+/// `--workers` runs.
+#[derive(Debug, Clone)]
+pub struct Tools {
+    /// The environments.
+    pub registry: Registry,
+    /// The launcher binary's name (beside this executable).
+    pub launcher: String,
+}
 
 /// Marks an error as the user's input being wrong (exit code 2).
 #[derive(Debug)]
@@ -38,8 +49,10 @@ pub fn exit_code(result: Result<()>) -> ExitCode {
                 c.is::<InputError>()
                     || c.is::<envpg_core::InstanceError>()
                     || c.is::<envpg_core::result::ResultError>()
-                    || c.is::<envpg_core::UavParamError>()
+                    || c.is::<envpg_core::ZetaError>()
+                    || c.is::<envpg_core::NoModel>()
                     || c.is::<envpg_ac::config::PresetError>()
+                    || c.is::<envpg_ac::config::ConfigError>()
                     || matches!(c.downcast_ref::<envpg_report::ReportError>(), Some(envpg_report::ReportError::Plan(_)))
             });
             if input { ExitCode::from(2) } else { ExitCode::from(1) }
@@ -47,46 +60,101 @@ pub fn exit_code(result: Result<()>) -> ExitCode {
     }
 }
 
-/// Loads an instance: `uav271` (bundled) or a path.
-pub fn load_instance(spec: &str) -> Result<Instance> {
-    Ok(Instance::resolve(spec)?)
+/// Which instance, with which parameters.
+#[derive(Debug, Clone, Args)]
+pub struct InstanceArgs {
+    /// Instance: a bundled one (`uav271`, `aac1800`, `flpo-n10m4`; `envpg envs` lists them) or a
+    /// path to an instance JSON file, which names its environment (`"env"`; none: `uav`).
+    #[arg(long, default_value = "uav271")]
+    pub instance: String,
+    /// Override a parameter of the instance's environment: `--env-param deviation=0.3`
+    /// (repeatable; `envpg envs` lists each environment's parameters).
+    #[arg(long = "env-param", value_name = "KEY=VALUE")]
+    pub env_params: Vec<String>,
+    /// Shorthand for `--env-param kappa=K` (uav, flpo): probability that a hop reaches its
+    /// intended target.
+    #[arg(long)]
+    pub kappa: Option<f64>,
+    /// Shorthand for `--env-param eta=E` (uav, flpo): concentration of off-target moves.
+    #[arg(long)]
+    pub eta: Option<f64>,
 }
 
-/// Builds the network, with κ and η validated.
-pub fn network(instance: Instance, kappa: f64, eta: f64) -> Result<UavNetwork> {
-    Ok(UavNetwork::new(instance, kappa, eta)?)
+impl InstanceArgs {
+    /// The parameter overrides.
+    pub fn overrides(&self) -> Result<Vec<(String, f64)>> {
+        let mut out = Vec::new();
+        for p in &self.env_params {
+            let Some((k, v)) = p.split_once('=') else {
+                return input_err(format!("--env-param {p:?}: expected KEY=VALUE"));
+            };
+            let Ok(x) = v.trim().parse::<f64>() else {
+                return input_err(format!("--env-param {p:?}: {:?} is not a number", v.trim()));
+            };
+            out.push((k.trim().to_owned(), x));
+        }
+        out.extend(self.kappa.map(|k| ("kappa".to_owned(), k)));
+        out.extend(self.eta.map(|e| ("eta".to_owned(), e)));
+        Ok(out)
+    }
+
+    /// The environment of the instance.
+    pub fn load(&self, registry: &Registry) -> Result<LoadedEnv> {
+        Ok(registry.load(&self.instance, &self.overrides()?)?)
+    }
 }
 
-/// Parses a design: a comma-separated list of 2M finite numbers.
-pub fn parse_zeta(text: &str, net: &UavNetwork) -> Result<Vec<f64>> {
+/// Parses a design: comma-separated finite numbers inside the environment's bounds.
+pub fn parse_zeta(text: &str, env: &LoadedEnv) -> Result<Vec<f64>> {
     let zeta: Vec<f64> = text
         .split(',')
         .map(|t| t.trim().parse::<f64>().map_err(|e| InputError(format!("zeta entry {t:?}: {e}"))))
         .collect::<Result<_, _>>()?;
-    if let Err(e) = net.check_zeta(&zeta) {
-        return input_err(e);
-    }
+    env.sampler().zeta_space().check(&zeta)?;
     Ok(zeta)
 }
 
-/// `ZETA` list or `RESULT.json` (its ζ₀): the initial design of a run.
-pub fn parse_init(text: &str, net: &UavNetwork) -> Result<Vec<f64>> {
+/// `ZETA` list or `RESULT.json` on the same instance (its ζ₀): the initial design of a run.
+pub fn parse_init(text: &str, env: &LoadedEnv) -> Result<Vec<f64>> {
     if std::path::Path::new(text).is_file() {
         let r = ResultFile::load(text)?;
-        if r.instance != *net.instance() {
+        if r.instance != env.instance {
             bail!(InputError(format!(
-                "{text} was computed on instance {:?}, not {:?}",
-                r.instance.name,
-                net.instance().name
+                "{text} was computed on instance {:?} ({}), not {:?} ({})",
+                r.instance_name(),
+                r.env,
+                env.title,
+                env.name
             )));
         }
         return Ok(r.zeta0);
     }
-    parse_zeta(text, net)
-        .with_context(|| format!("--init {text:?} is neither a result file nor a list of {} numbers", net.zeta_dim()))
+    parse_zeta(text, env).map_err(|e| {
+        InputError(format!(
+            "--init {text:?} is neither a result file nor {} numbers inside the bounds: {e:#}",
+            env.sampler().zeta_dim()
+        ))
+        .into()
+    })
 }
 
 /// A positive finite number.
 pub fn positive(name: &str, x: f64) -> Result<f64> {
     if x.is_finite() && x > 0.0 { Ok(x) } else { input_err(format!("{name} must be finite and > 0, got {x}")) }
+}
+
+/// Checks, before any work, that a result can be written at `path`: its directory exists (or
+/// can be created) and accepts a file. Failure is an input error.
+pub fn check_writable(path: &std::path::Path) -> Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_owned(),
+        _ => std::path::PathBuf::from("."),
+    };
+    let probe = || -> std::io::Result<()> {
+        std::fs::create_dir_all(&dir)?;
+        let tmp = dir.join(format!(".envpg-write-check.{}", std::process::id()));
+        std::fs::write(&tmp, b"")?;
+        std::fs::remove_file(&tmp)
+    };
+    probe().map_err(|e| InputError(format!("cannot write {}: {e}", path.display())).into())
 }

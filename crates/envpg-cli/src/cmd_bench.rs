@@ -4,9 +4,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::Result;
 use clap::Subcommand;
+use envpg_core::{Purpose, Streams};
 use envpg_model::{Form, GradientKind, Objective, Snapshot, solve_soft};
 
-use crate::args::{load_instance, network, parse_zeta, positive};
+use crate::args::{InstanceArgs, Tools, parse_zeta, positive};
 
 /// Benchmarks.
 #[derive(Debug, Subcommand)]
@@ -14,16 +15,15 @@ pub enum BenchCmd {
     /// Exact ζ-gradient (visits × local derivative) vs central differences over every
     /// coordinate, at the same ζ and α, on one instance.
     Gradient {
-        /// Instance: `uav271` (bundled) or a path.
-        #[arg(long, default_value = "uav271")]
-        instance: String,
-        /// κ values to measure.
-        #[arg(long, value_delimiter = ',', default_value = "1.0,0.85")]
-        kappas: Vec<f64>,
+        #[command(flatten)]
+        instance: InstanceArgs,
+        /// κ values to measure (uav, flpo; each overrides the instance's).
+        #[arg(long, value_delimiter = ',')]
+        kappas: Option<Vec<f64>>,
         /// Temperature α.
         #[arg(long, default_value_t = 0.2)]
         alpha: f64,
-        /// Design [default: a fixed spread-out design of the bundled instance].
+        /// Design [default: the environment's own starting design, or its random design of seed 1].
         #[arg(long)]
         zeta: Option<String>,
         /// Seconds to spend per measurement.
@@ -33,32 +33,42 @@ pub enum BenchCmd {
 }
 
 /// Runs a benchmark.
-pub fn run(cmd: BenchCmd) -> Result<()> {
+pub fn run(cmd: BenchCmd, tools: &Tools) -> Result<()> {
     match cmd {
         BenchCmd::Gradient { instance, kappas, alpha, zeta, seconds } => {
-            let inst = load_instance(&instance)?;
             positive("--alpha", alpha)?;
             positive("--seconds", seconds)?;
+            let base = instance.load(&tools.registry)?;
             println!(
-                "gradient benchmark: {} ({} users, {} UAVs), alpha = {alpha}",
-                inst.name,
-                inst.n_users(),
-                inst.n_uav
+                "gradient benchmark: {} ({}, {} states, ζ ∈ ℝ^{}), alpha = {alpha}",
+                base.title,
+                base.name,
+                base.sampler().n_states(),
+                base.sampler().zeta_dim()
             );
             println!(
-                "{:>6}  {:>14}  {:>14}  {:>8}  {:>12}",
-                "kappa", "exact (µs)", "central (µs)", "ratio", "rel diff"
+                "{:>24}  {:>14}  {:>14}  {:>8}  {:>12}",
+                "parameters", "exact (µs)", "central (µs)", "ratio", "rel diff"
             );
-            for kappa in kappas {
-                let net = network(inst.clone(), kappa, 100.0)?;
+            let settings: Vec<Option<f64>> = match kappas {
+                Some(k) => k.into_iter().map(Some).collect(),
+                None => vec![None],
+            };
+            for kappa in settings {
+                let mut over = instance.overrides()?;
+                over.extend(kappa.map(|k| ("kappa".to_owned(), k)));
+                let env = tools.registry.load(&instance.instance, &over)?;
+                let net = env.model()?;
                 let zeta = match &zeta {
-                    Some(z) => parse_zeta(z, &net)?,
-                    None => default_zeta(&net),
+                    Some(z) => parse_zeta(z, &env)?,
+                    None => net
+                        .heuristic_design()
+                        .unwrap_or_else(|| net.random_design(&mut Streams::new(1).stream(Purpose::Zeta0, 0, 0))),
                 };
-                let warm = solve_soft(&Snapshot::build(&net, &zeta), alpha, None)?.pi;
-                let mut exact = Objective::new(&net, alpha, Form::Ssp);
+                let warm = solve_soft(&Snapshot::build(net, &zeta), alpha, None)?.pi;
+                let mut exact = Objective::new(net, alpha, Form::Ssp);
                 exact.gradient = GradientKind::Exact;
-                let mut fd = Objective::new(&net, alpha, Form::Ssp);
+                let mut fd = Objective::new(net, alpha, Form::Ssp);
                 fd.gradient = GradientKind::Fd;
                 let ge = exact.value_grad(&zeta, Some(&warm))?.grad;
                 let gf = fd.value_grad(&zeta, Some(&warm))?.grad;
@@ -69,7 +79,8 @@ pub fn run(cmd: BenchCmd) -> Result<()> {
                 let te = time_per_call(budget, || exact.value_grad(&zeta, Some(&warm)).map(|_| ()))?;
                 let tf = time_per_call(budget, || fd.value_grad(&zeta, Some(&warm)).map(|_| ()))?;
                 println!(
-                    "{kappa:>6}  {:>14.1}  {:>14.1}  {:>7.1}×  {diff:>12.2e}",
+                    "{:>24}  {:>14.1}  {:>14.1}  {:>7.1}×  {diff:>12.2e}",
+                    env.params_text(),
                     te.as_secs_f64() * 1e6,
                     tf.as_secs_f64() * 1e6,
                     tf.as_secs_f64() / te.as_secs_f64()
@@ -78,18 +89,6 @@ pub fn run(cmd: BenchCmd) -> Result<()> {
             Ok(())
         }
     }
-}
-
-/// A spread-out design inside the users' bounding box.
-fn default_zeta(net: &envpg_core::UavNetwork) -> Vec<f64> {
-    let (lo, hi) = net.instance().user_bbox();
-    let m = net.n_uav();
-    (0..m)
-        .flat_map(|j| {
-            let t = (j as f64 + 0.5) / m as f64;
-            [lo[0] + t * (hi[0] - lo[0]), hi[1] - t * (hi[1] - lo[1])]
-        })
-        .collect()
 }
 
 /// Median wall time of `f` over repeated calls within `budget`.

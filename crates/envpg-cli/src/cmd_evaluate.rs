@@ -3,53 +3,49 @@
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use envpg_core::ResultFile;
-use envpg_model::uav::{optimal_greedy, pairs_from_rows};
-use envpg_model::{Snapshot, evaluate};
+use envpg_core::policy::pairs_from_rows;
+use envpg_model::{Snapshot, evaluate, optimal_greedy};
 
-use crate::args::{input_err, load_instance, network, parse_zeta};
+use crate::args::{InputError, InstanceArgs, Tools, input_err, parse_zeta};
 
 /// Options of `envpg evaluate`: either result files, or a design on an instance.
 #[derive(Debug, Args)]
 pub struct EvaluateArgs {
-    /// Result files to re-score from their own contents (instance, κ, η, ζ, policy).
+    /// Result files (envpg.result.v2, or v1) to re-score from their own contents (environment,
+    /// instance with its parameters, ζ, policy).
     results: Vec<std::path::PathBuf>,
-    /// Instance for `--zeta`: `uav271` (bundled) or a path.
-    #[arg(long, default_value = "uav271")]
-    instance: String,
-    /// Design to score with its optimal (greedy) policy: 2M comma-separated numbers.
+    /// The instance for `--zeta`.
+    #[command(flatten)]
+    instance: InstanceArgs,
+    /// Design to score with its optimal (greedy) policy: d comma-separated numbers.
     #[arg(long)]
     zeta: Option<String>,
-    /// κ for `--zeta`.
-    #[arg(long, default_value_t = 1.0)]
-    kappa: f64,
-    /// η for `--zeta`.
-    #[arg(long, default_value_t = 100.0)]
-    eta: f64,
     /// Relative tolerance when comparing with the J stored in a result file.
     #[arg(long, default_value_t = 1e-9)]
     tol: f64,
 }
 
 /// Re-scores result files (exit 1 if a stored J disagrees) or scores a design.
-pub fn run(a: EvaluateArgs) -> Result<()> {
+pub fn run(a: EvaluateArgs, tools: &Tools) -> Result<()> {
     if a.results.is_empty() && a.zeta.is_none() {
         return input_err("give result files to re-score, or --zeta to score a design");
     }
     if let Some(z) = &a.zeta {
-        let net = network(load_instance(&a.instance)?, a.kappa, a.eta)?;
-        let zeta = parse_zeta(z, &net)?;
-        let (_, _, j) = optimal_greedy(&net, &zeta).context("solving the design")?;
-        println!("J = {j:.9}  (optimal policy at the given zeta, kappa={}, eta={})", a.kappa, a.eta);
+        let env = a.instance.load(&tools.registry)?;
+        let model = env.model()?;
+        let zeta = parse_zeta(z, &env)?;
+        let (_, _, j) = optimal_greedy(model, &zeta).context("solving the design")?;
+        println!("J = {j:.9}  (optimal policy at the given zeta; {} {}, {})", env.name, env.title, env.params_text());
     }
     let mut mismatches = 0;
     for path in &a.results {
         let r = ResultFile::load(path)?;
-        let net = network(r.instance.clone(), r.kappa, r.eta).with_context(|| format!("{}", path.display()))?;
-        let snap = Snapshot::build(&net, &r.zeta);
-        let pi = pairs_from_rows(&net, &snap, &r.policy)
-            .map_err(|e| crate::args::InputError(format!("{}: {e}", path.display())))?;
+        let env = r.load_env(&tools.registry, path)?;
+        let model = env.model().map_err(|e| InputError(format!("{}: {e}", path.display())))?;
+        let snap = Snapshot::build(model, &r.zeta);
+        let pi = pairs_from_rows(model, &r.policy).map_err(|e| InputError(format!("{}: {e}", path.display())))?;
         let recomputed = evaluate(&snap, &pi, 0.0);
-        let mut line = format!("{}: method={} kappa={} ", path.display(), r.method, r.kappa);
+        let mut line = format!("{}: method={} env={} {} ", path.display(), r.method, r.env, env.params_text());
         match (&recomputed, r.j) {
             (Ok(v), Some(stored)) => {
                 let ok = (v.j - stored).abs() <= a.tol * stored.abs().max(1.0);
@@ -67,8 +63,7 @@ pub fn run(a: EvaluateArgs) -> Result<()> {
             }
         }
         if let (Some(soft), Some(alpha)) = (&r.policy_soft, r.alpha_final) {
-            let pis = pairs_from_rows(&net, &snap, soft)
-                .map_err(|e| crate::args::InputError(format!("{}: {e}", path.display())))?;
+            let pis = pairs_from_rows(model, soft).map_err(|e| InputError(format!("{}: {e}", path.display())))?;
             if let Ok(v) = evaluate(&snap, &pis, alpha) {
                 line += &format!("  J_H(soft policy, alpha={alpha:.3e}) = {:.9}", v.j);
             }

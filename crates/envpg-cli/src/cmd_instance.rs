@@ -2,14 +2,15 @@
 
 use anyhow::{Context, Result};
 use clap::Subcommand;
-use envpg_core::instance::{GenerateSpec, generate};
+use envpg_core::policy::row_states;
+use envpg_envs::uav::{GenerateSpec, generate};
 
-use crate::args::load_instance;
+use crate::args::{InstanceArgs, Tools};
 
 /// Instance tools.
 #[derive(Debug, Subcommand)]
 pub enum InstanceCmd {
-    /// Generate a seeded instance with clustered users.
+    /// Generate a seeded UAV instance with clustered users.
     Generate {
         /// Number of users.
         #[arg(long, default_value_t = 271)]
@@ -36,15 +37,19 @@ pub enum InstanceCmd {
         #[arg(long)]
         out: Option<std::path::PathBuf>,
     },
-    /// Validate an instance file and print a summary.
+    /// Validate an instance file (or a bundled instance's name) and print a summary of its
+    /// environment.
     Check {
-        /// Instance file (or `uav271`).
+        /// The instance.
         file: String,
+        /// Override a parameter: `--env-param kappa=0.9` (repeatable).
+        #[arg(long = "env-param", value_name = "KEY=VALUE")]
+        env_params: Vec<String>,
     },
 }
 
 /// Runs an instance subcommand.
-pub fn run(cmd: InstanceCmd) -> Result<()> {
+pub fn run(cmd: InstanceCmd, tools: &Tools) -> Result<()> {
     match cmd {
         InstanceCmd::Generate { users, uavs, clusters, side, spread, seed, name, out } => {
             let spec = GenerateSpec {
@@ -67,19 +72,25 @@ pub fn run(cmd: InstanceCmd) -> Result<()> {
                 None => println!("{text}"),
             }
         }
-        InstanceCmd::Check { file } => {
-            let inst = load_instance(&file)?;
-            let (lo, hi) = inst.user_bbox();
+        InstanceCmd::Check { file, env_params } => {
+            let instance = InstanceArgs { instance: file, env_params, kappa: None, eta: None };
+            let env = instance.load(&tools.registry)?;
+            let s = env.sampler();
+            let space = s.zeta_space();
+            let bounded = if space.is_bounded() { "bounded" } else { "unbounded" };
             println!(
-                "{file}: ok — name {:?}, {} users in [{:.3}, {:.3}]×[{:.3}, {:.3}], {} UAVs, destination {:?}",
-                inst.name,
-                inst.n_users(),
-                lo[0],
-                hi[0],
-                lo[1],
-                hi[1],
-                inst.n_uav,
-                inst.dest
+                "{}: ok — environment `{}`, name {:?}, {}; {} states ({} non-terminal), {} actions, γ = {}, ζ ∈ ℝ^{} ({bounded}: {}), {}",
+                instance.instance,
+                env.name,
+                env.title,
+                env.params_text(),
+                s.n_states(),
+                row_states(s).len(),
+                s.n_actions(),
+                s.gamma(),
+                s.zeta_dim(),
+                space.names().join(", "),
+                if env.env.model().is_some() { "with a model" } else { "no model" }
             );
         }
     }

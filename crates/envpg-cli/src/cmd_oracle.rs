@@ -5,29 +5,24 @@ use clap::Args;
 use envpg_model::GradientKind;
 use envpg_model::oracle::{OracleConfig, Strategy, run_oracle};
 
-use crate::args::{input_err, load_instance, network, parse_init, positive};
+use crate::args::{InstanceArgs, Tools, input_err, parse_init, positive};
 
-/// Options of `envpg oracle`. Unset temperatures default to values scaled to the instance
-/// (hot start at 10× its squared extent).
+/// Options of `envpg oracle`. Unset temperatures default to values scaled to the environment
+/// (hot start at 10× its cost scale; for the UAV network, its squared extent).
 #[derive(Debug, Args)]
 pub struct OracleArgs {
-    /// Instance: `uav271` (bundled) or a path to an instance JSON file.
-    #[arg(long, default_value = "uav271")]
-    instance: String,
-    /// Probability κ ∈ (0, 1] that a hop reaches its intended target.
-    #[arg(long, default_value_t = 1.0)]
-    kappa: f64,
-    /// Concentration η ≥ 0 of off-target moves.
-    #[arg(long, default_value_t = 100.0)]
-    eta: f64,
-    /// Number of restarts from random ζ₀ (uniform over the users' bounding box); the best is kept.
+    #[command(flatten)]
+    instance: InstanceArgs,
+    /// Number of restarts from random ζ₀ (the environment's random design: for uav uniform over
+    /// the users' bounding box, otherwise over the design bounds); the best is kept.
     #[arg(long, default_value_t = 16)]
     restarts: usize,
     /// Seed of ζ₀ draws and annealing noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Initial design of the first restart: 2M comma-separated numbers, or a result file
-    /// (its `zeta0`, e.g. the start of a model-free run).
+    /// Initial design of the first restart: d comma-separated numbers inside the design
+    /// bounds, or a result file on the same instance (its `zeta0`, e.g. the start of a
+    /// model-free run).
     #[arg(long, value_name = "ZETA|RESULT.json")]
     init: Option<String>,
     /// How ∇ζ J_H is computed: exactly from the model, or by central differences.
@@ -35,13 +30,14 @@ pub struct OracleArgs {
     gradient: GradientArg,
     /// Kinds of restart: `anneal` (deterministic annealing from hot; ζ₀ is forgotten), `warm`
     /// (from ζ₀ at --warm-alpha0, SSP form where it exists), `mixed` (one anneal, the rest
-    /// warm), `auto` (anneal at κ = 1, mixed otherwise). With --init, restart 0 is warm.
+    /// warm), `auto` (anneal when the model is deterministic, mixed otherwise). With --init,
+    /// restart 0 is warm.
     #[arg(long, value_enum, default_value = "auto")]
     strategy: StrategyArg,
-    /// Starting temperature of anneal restarts [default: 10 × squared extent of the instance].
+    /// Starting temperature of anneal restarts [default: 10 × the environment's cost scale].
     #[arg(long)]
     alpha0: Option<f64>,
-    /// Starting temperature of warm restarts [default: 0.5].
+    /// Starting temperature of warm restarts [default: the environment's hint; 0.5 for uav].
     #[arg(long)]
     warm_alpha0: Option<f64>,
     /// Last positive temperature.
@@ -50,10 +46,11 @@ pub struct OracleArgs {
     /// Temperature factor per level, in (0, 1).
     #[arg(long)]
     cooling: Option<f64>,
-    /// Levels hotter than this use the finite-horizon form (SSP below) [default: 1% of the squared extent].
+    /// Levels hotter than this use the finite-horizon form (SSP below) [default: 1% of the cost scale].
     #[arg(long)]
     alpha_switch: Option<f64>,
-    /// Horizon of the finite-horizon form [default: M+1, every simple route through the UAVs].
+    /// Horizon of the finite-horizon form [default: the environment's; M+1 for uav and flpo,
+    /// every simple route through the M relays or facilities].
     #[arg(long)]
     horizon: Option<usize>,
     /// L-BFGS iterations per temperature level.
@@ -62,7 +59,7 @@ pub struct OracleArgs {
     /// Threads for restarts [default: available cores].
     #[arg(long)]
     threads: Option<usize>,
-    /// Write the result file (envpg.result.v1) here.
+    /// Write the result file (envpg.result.v2) here.
     #[arg(long)]
     out: Option<std::path::PathBuf>,
 }
@@ -82,9 +79,10 @@ enum GradientArg {
 }
 
 /// Runs the oracle and prints a summary.
-pub fn run(a: OracleArgs) -> Result<()> {
-    let net = network(load_instance(&a.instance)?, a.kappa, a.eta)?;
-    let mut cfg = OracleConfig::for_network(&net);
+pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
+    let env = a.instance.load(&tools.registry)?;
+    let net = env.model()?;
+    let mut cfg = OracleConfig::for_env(net);
     cfg.restarts = a.restarts;
     cfg.seed = a.seed;
     cfg.gradient = match a.gradient {
@@ -122,18 +120,21 @@ pub fn run(a: OracleArgs) -> Result<()> {
         cfg.threads = t.max(1);
     }
     if let Some(init) = &a.init {
-        cfg.init = Some(parse_init(init, &net)?);
+        cfg.init = Some(parse_init(init, &env)?);
     }
-    if let Err(e) = cfg.validate(&net) {
+    if let Err(e) = cfg.validate(net) {
         return input_err(e.to_string());
     }
-    let out = run_oracle(&net, &cfg).context("oracle failed")?;
+    if let Some(path) = &a.out {
+        crate::args::check_writable(path)?;
+    }
+    let out = run_oracle(net, &cfg).context("oracle failed")?;
     let best = &out.restarts[out.best];
     println!(
-        "oracle  instance={} kappa={} eta={} restarts={} seed={}",
-        net.instance().name,
-        net.kappa(),
-        net.eta(),
+        "oracle  instance={} env={} {} restarts={} seed={}",
+        env.title,
+        env.name,
+        env.params_text(),
         cfg.restarts,
         cfg.seed
     );
@@ -153,7 +154,7 @@ pub fn run(a: OracleArgs) -> Result<()> {
     );
     println!("zeta = {}", fmt_vec(&best.zeta));
     if let Some(path) = &a.out {
-        let file = out.to_result(&net, &cfg)?;
+        let file = out.to_result(&env, &cfg)?;
         file.save(path).with_context(|| format!("writing {}", path.display()))?;
         println!("wrote {}", path.display());
     }

@@ -7,12 +7,13 @@ use clap::Args;
 use envpg_core::ResultFile;
 use envpg_report::figures::{PlotOptions, plot_results};
 
-use crate::args::input_err;
+use crate::args::{Tools, input_err};
 
 /// Options of `envpg plot`.
 #[derive(Debug, Args)]
 pub struct PlotArgs {
-    /// Result files (envpg.result.v1) of Algorithm 1 runs and oracle runs.
+    /// Result files (envpg.result.v2, or v1) of Algorithm 1 runs and oracle runs, of any
+    /// environments (grouped into columns by the instance parameters that differ).
     #[arg(required = true)]
     results: Vec<PathBuf>,
     /// Output directory.
@@ -24,12 +25,15 @@ pub struct PlotArgs {
 }
 
 /// Renders every figure the results support.
-pub fn run(a: PlotArgs) -> Result<()> {
+pub fn run(a: PlotArgs, tools: &Tools) -> Result<()> {
     if a.window == 0 {
         return input_err("--window must be at least 1");
     }
     let results = a.results.iter().map(ResultFile::load).collect::<Result<Vec<_>, _>>()?;
-    for f in plot_results(&results, &a.out, &PlotOptions { window: a.window })? {
+    for (r, path) in results.iter().zip(&a.results) {
+        r.load_env(&tools.registry, path)?;
+    }
+    for f in plot_results(&results, &tools.registry, &a.out, &PlotOptions { window: a.window })? {
         println!("wrote {}", f.display());
     }
     Ok(())

@@ -8,15 +8,15 @@ use clap::Args;
 use envpg_report::sweep::{SweepRow, markdown};
 use envpg_report::{SweepPlan, run_sweep};
 
-use crate::args::{input_err, load_instance};
+use crate::args::{InstanceArgs, Tools, input_err};
 use crate::cmd_table::bar;
 use crate::experiment_args::{RunnerArgs, SettingsArgs, command_line, machine_line, parse_seeds, split_values};
 
 /// Options of `envpg sweep`.
 #[derive(Debug, Args)]
 pub struct SweepArgs {
-    /// The swept setting: `kappa`, `eta`, or any Algorithm 1 setting (`sigma`, `zeta_lr`,
-    /// `zeta_estimator`, …).
+    /// The swept setting: a parameter of the instance's environment (`kappa`, `eta`,
+    /// `deviation`, …) or any Algorithm 1 setting (`sigma`, `zeta_lr`, `zeta_estimator`, …).
     #[arg(long)]
     param: String,
     /// Its values, comma-separated (brackets keep lists whole: `[64,64],[128]`).
@@ -25,15 +25,8 @@ pub struct SweepArgs {
     /// Seeds per value: `1..3` or a list.
     #[arg(long, default_value = "1..3")]
     seeds: String,
-    /// Instance: `uav271` (bundled) or a path to an instance JSON file.
-    #[arg(long, default_value = "uav271")]
-    instance: String,
-    /// κ (unless swept).
-    #[arg(long, default_value_t = 1.0)]
-    kappa: f64,
-    /// η (unless swept).
-    #[arg(long, default_value_t = 100.0)]
-    eta: f64,
+    #[command(flatten)]
+    instance: InstanceArgs,
     #[command(flatten)]
     settings: SettingsArgs,
     #[command(flatten)]
@@ -53,15 +46,15 @@ pub struct SweepArgs {
 }
 
 /// Runs the sweep.
-pub fn run(a: SweepArgs) -> Result<()> {
+pub fn run(a: SweepArgs, tools: &Tools) -> Result<()> {
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(format!("results/sweep-{}", a.param)));
-    let (runner, jobs) = a.runner.runner(&out)?;
+    let env = a.instance.load(&tools.registry)?;
+    let (runner, jobs) = a.runner.runner(&out, tools)?;
     let plan = SweepPlan {
-        instance: load_instance(&a.instance)?,
-        kappa: a.kappa,
-        eta: a.eta,
+        registry: tools.registry.clone(),
+        instance: env.instance.clone(),
         seeds: parse_seeds(&a.seeds)?,
-        config: a.settings.config()?,
+        config: a.settings.config(env.name)?,
         param: a.param.clone(),
         values: split_values(&a.values),
         study_at: a.study_at,

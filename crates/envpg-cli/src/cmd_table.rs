@@ -5,27 +5,31 @@ use std::sync::Mutex;
 
 use anyhow::Result;
 use clap::Args;
-use envpg_report::{JobReport, TablePlan, run_table};
+use envpg_report::{JobReport, TablePlan, Vary, run_table};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::args::{input_err, load_instance};
-use crate::experiment_args::{RunnerArgs, SettingsArgs, command_line, machine_line, parse_seeds};
+use crate::args::{InstanceArgs, Tools};
+use crate::experiment_args::{RunnerArgs, SettingsArgs, command_line, machine_line, parse_seeds, parse_vary};
+
+/// The columns of the paper's Table I, the default on its instance.
+const PAPER_KAPPAS: [f64; 4] = [1.0, 0.95, 0.9, 0.85];
 
 /// Options of `envpg table`.
 #[derive(Debug, Args)]
 pub struct TableArgs {
-    /// Instance: `uav271` (bundled) or a path to an instance JSON file.
-    #[arg(long, default_value = "uav271")]
-    instance: String,
-    /// κ columns.
-    #[arg(long, value_delimiter = ',', default_value = "1,0.95,0.9,0.85")]
-    kappas: Vec<f64>,
+    #[command(flatten)]
+    instance: InstanceArgs,
+    /// Columns: one parameter of the environment over several values, `KEY=V1,V2,…` (e.g.
+    /// `--vary temperature=100,0.01`) [default: one column, the instance as given; on the
+    /// paper's instance `uav271`, its Table I: `kappa=1,0.95,0.9,0.85`].
+    #[arg(long, value_name = "KEY=V1,V2,…", conflicts_with = "kappas")]
+    vary: Option<String>,
+    /// Shorthand for `--vary kappa=LIST` (uav, flpo).
+    #[arg(long, value_delimiter = ',')]
+    kappas: Option<Vec<f64>>,
     /// Seeds: `1..6` or a list.
     #[arg(long, default_value = "1..6")]
     seeds: String,
-    /// Concentration η of off-target moves.
-    #[arg(long, default_value_t = 100.0)]
-    eta: f64,
     #[command(flatten)]
     settings: SettingsArgs,
     #[command(flatten)]
@@ -52,13 +56,22 @@ pub struct TableArgs {
 }
 
 /// Runs the table.
-pub fn run(a: TableArgs) -> Result<()> {
-    let config = a.settings.config()?;
-    let (runner, jobs) = a.runner.runner(&a.out)?;
+pub fn run(a: TableArgs, tools: &Tools) -> Result<()> {
+    let env = a.instance.load(&tools.registry)?;
+    let config = a.settings.config(env.name)?;
+    let (runner, jobs) = a.runner.runner(&a.out, tools)?;
+    let vary = match (&a.vary, &a.kappas) {
+        (Some(v), _) => Some(parse_vary(v)?),
+        (None, Some(k)) => Some(Vary { key: "kappa".into(), values: k.clone() }),
+        (None, None) if a.instance.instance == envpg_envs::BUNDLED_UAV && a.instance.kappa.is_none() => {
+            Some(Vary { key: "kappa".into(), values: PAPER_KAPPAS.to_vec() })
+        }
+        (None, None) => None,
+    };
     let plan = TablePlan {
-        instance: load_instance(&a.instance)?,
-        eta: a.eta,
-        kappas: a.kappas.clone(),
+        registry: tools.registry.clone(),
+        instance: env.instance.clone(),
+        vary,
         seeds: parse_seeds(&a.seeds)?,
         config,
         restarts: a.restarts,
@@ -68,10 +81,8 @@ pub fn run(a: TableArgs) -> Result<()> {
         window: a.window,
         preamble: vec![command_line(), machine_line()],
     };
-    if let Err(e) = plan.validate() {
-        return input_err(e.to_string());
-    }
-    let bar = bar(plan.jobs().len() as u64, a.quiet);
+    let columns = plan.validate()?;
+    let bar = bar(plan.jobs(&columns).len() as u64, a.quiet);
     let bar_ref = Mutex::new(&bar);
     let on_job = |r: &JobReport| {
         let line = match (&r.outcome, r.skipped) {

@@ -11,14 +11,15 @@ use envpg_ac::trainer::RunSpec;
 use envpg_core::ResultFile;
 use envpg_report::{Alg1Runner, InProcess};
 
-use crate::args::{InputError, input_err};
+use crate::args::{InputError, Tools, input_err};
 
 /// Algorithm 1 settings of an experiment.
 #[derive(Debug, Clone, Args)]
 pub struct SettingsArgs {
-    /// Preset of Algorithm 1 settings (see launch/presets.toml).
-    #[arg(long, default_value = "uav")]
-    pub preset: String,
+    /// Preset of Algorithm 1 settings (see launch/presets.toml) [default: the preset named like
+    /// the environment (`uav`, `aac`, `flpo`), or `uav` for one without].
+    #[arg(long)]
+    pub preset: Option<String>,
     /// Preset file [default: the bundled launch/presets.toml].
     #[arg(long)]
     pub presets: Option<PathBuf>,
@@ -31,11 +32,13 @@ pub struct SettingsArgs {
 }
 
 impl SettingsArgs {
-    /// The validated settings.
-    pub fn config(&self) -> Result<AcConfig> {
-        let mut c = match &self.presets {
-            Some(p) => AcConfig::from_preset(p, &self.preset)?,
-            None => AcConfig::bundled(&self.preset)?,
+    /// The validated settings for environment `env`.
+    pub fn config(&self, env: &str) -> Result<AcConfig> {
+        let mut c = match (&self.presets, &self.preset) {
+            (Some(p), Some(name)) => AcConfig::from_preset(p, name)?,
+            (Some(p), None) => AcConfig::from_preset_for(p, env)?,
+            (None, Some(name)) => AcConfig::bundled(name)?,
+            (None, None) => AcConfig::bundled_for(env)?,
         };
         if let Some(n) = self.iterations {
             c = c.set("iterations", &n.to_string()).map_err(|e| InputError(e.to_string()))?;
@@ -68,23 +71,23 @@ pub struct RunnerArgs {
 
 impl RunnerArgs {
     /// The runner and the number of parallel jobs.
-    pub fn runner(&self, dir: &Path) -> Result<(Box<dyn Alg1Runner>, usize)> {
+    pub fn runner(&self, dir: &Path, tools: &Tools) -> Result<(Box<dyn Alg1Runner>, usize)> {
         let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
         if self.jobs == Some(0) {
             return input_err("--jobs must be at least 1");
         }
         match self.workers {
-            None => Ok((Box::new(InProcess), self.jobs.unwrap_or(cores))),
+            None => Ok((Box::new(InProcess(tools.registry.clone())), self.jobs.unwrap_or(cores))),
             Some(0) => input_err("--workers must be at least 1"),
             Some(w) => {
-                let launch = Launcher::find(w, dir)?;
+                let launch = Launcher::find(w, dir, &tools.launcher)?;
                 Ok((Box::new(launch), self.jobs.unwrap_or((cores / (w + 1)).max(1))))
             }
         }
     }
 }
 
-/// Runs Algorithm 1 through the `envpg-launch` binary next to this one (or `$ENVPG_LAUNCH`).
+/// Runs Algorithm 1 through the launcher binary next to this one (or `$ENVPG_LAUNCH`).
 #[derive(Debug)]
 pub struct Launcher {
     exe: PathBuf,
@@ -93,17 +96,17 @@ pub struct Launcher {
 }
 
 impl Launcher {
-    fn find(workers: usize, dir: &Path) -> Result<Self> {
+    fn find(workers: usize, dir: &Path, name: &str) -> Result<Self> {
         let exe = match std::env::var_os("ENVPG_LAUNCH") {
             Some(p) => PathBuf::from(p),
             None => std::env::current_exe()
                 .context("locating this executable")?
-                .with_file_name(format!("envpg-launch{}", std::env::consts::EXE_SUFFIX)),
+                .with_file_name(format!("{name}{}", std::env::consts::EXE_SUFFIX)),
         };
         if !exe.is_file() {
             return input_err(format!(
-                "--workers needs the envpg-launch binary, not found at {} (build it with `cargo build \
-                 --release --bin envpg-launch`, or set ENVPG_LAUNCH)",
+                "--workers needs the {name} binary, not found at {} (build it with `cargo build \
+                 --release --bin {name}`, or set ENVPG_LAUNCH)",
                 exe.display()
             ));
         }
@@ -126,20 +129,13 @@ impl Alg1Runner for Launcher {
             envpg_core::io::write_atomic(p, t.as_bytes()).map_err(|e| format!("{}: {e}", p.display()))
         };
         write(&preset_path, toml::to_string(&presets).map_err(|e| e.to_string())?)?;
-        write(&instance_path, spec.instance.to_json_pretty())?;
+        write(&instance_path, serde_json::to_string_pretty(&spec.instance).map_err(|e| e.to_string())?)?;
         let output = Command::new(&self.exe)
             .arg("--workers")
             .arg(self.workers.to_string())
             .arg("--instance")
             .arg(&instance_path)
-            .args([
-                "--kappa",
-                &spec.kappa.to_string(),
-                "--eta",
-                &spec.eta.to_string(),
-                "--seed",
-                &spec.seed.to_string(),
-            ])
+            .args(["--seed", &spec.seed.to_string()])
             .arg("--presets")
             .arg(&preset_path)
             .args(["--preset", "run", "--quiet", "--out"])
@@ -158,8 +154,21 @@ impl Alg1Runner for Launcher {
     }
 
     fn describe(&self) -> String {
-        format!("Algorithm 1 distributed (envpg-launch --workers {})", self.workers)
+        let name = self.exe.file_name().map_or("envpg-launch".into(), |n| n.to_string_lossy().into_owned());
+        format!("Algorithm 1 distributed ({name} --workers {})", self.workers)
     }
+}
+
+/// Parses `KEY=V1,V2,…` (the columns of `--vary`).
+pub fn parse_vary(text: &str) -> Result<envpg_report::Vary> {
+    let bad = || InputError(format!("--vary {text:?}: expected KEY=V1,V2,… with numeric values"));
+    let (key, values) = text.split_once('=').ok_or_else(bad)?;
+    let values: Vec<f64> =
+        values.split(',').map(|v| v.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| bad())?;
+    if key.trim().is_empty() || values.is_empty() {
+        return Err(bad().into());
+    }
+    Ok(envpg_report::Vary { key: key.trim().to_owned(), values })
 }
 
 /// Parses seeds: `1..6` (inclusive) or `1,2,5`.

@@ -46,7 +46,8 @@ fn oracle_result_rescored_by_evaluate_matches() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("best J ="), "{}", stdout(&o));
     let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
-    assert_eq!(r["schema"], "envpg.result.v1");
+    assert_eq!(r["schema"], "envpg.result.v2");
+    assert_eq!((r["env"].as_str(), r["instance"]["params"]["kappa"].as_f64()), (Some("uav"), Some(0.9)));
     assert_eq!(r["method"], "oracle");
     assert_eq!(r["zeta"].as_array().unwrap().len(), 6);
     assert_eq!(r["policy"].as_array().unwrap().len(), 33);
@@ -79,7 +80,7 @@ fn bad_input_is_refused_with_exit_code_2() {
         (vec!["oracle", "--kappa", "1.5"], "kappa must be in (0, 1]"),
         (vec!["oracle", "--kappa", "NaN"], "kappa"),
         (vec!["oracle", "--instance", bad.to_str().unwrap()], "duplicate field `dest`"),
-        (vec!["oracle", "--init", "1,2"], "zeta has 2 entries"),
+        (vec!["oracle", "--init", "1,2"], "ζ has 2 entries"),
         (vec!["oracle", "--cooling", "1.2"], "cooling"),
         (vec!["oracle", "--no-such-option"], "unexpected argument"),
         (vec!["evaluate", "/nonexistent/r.json"], "cannot read result file"),
@@ -95,5 +96,10 @@ fn bad_input_is_refused_with_exit_code_2() {
 fn instance_check_summarises_the_bundled_instance() {
     let o = envpg(&["instance", "check", "uav271"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stdout(&o).contains("271 users"), "{}", stdout(&o));
+    assert!(stdout(&o).contains("environment `uav`") && stdout(&o).contains("277 states"), "{}", stdout(&o));
+    for (name, env) in [("aac1800", "aac"), ("flpo-n10m4", "flpo")] {
+        let o = envpg(&["instance", "check", name]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stdout(&o).contains(&format!("environment `{env}`")), "{}", stdout(&o));
+    }
 }

@@ -164,22 +164,38 @@ fn table_writes_parsable_reports_and_resumes_without_redoing_runs() {
     // The best oracle is no worse than any same-start oracle at its κ (it has more restarts
     // or the same J): the relation the table's Δ rows rely on.
     let md = read_markdown_table(&out_dir.join("table.md"));
-    assert_eq!(md[0][1..], ["κ = 1", "κ = 0.9", "overall"]);
+    assert_eq!(md[0][1..], ["kappa = 1", "kappa = 0.9", "overall"]);
     let names: Vec<&str> = md.iter().map(|r| r[0].as_str()).collect();
-    for want in ["Algorithm 1", "Oracle, same ζ₀", "Oracle, best of 2 restarts", "Δ Algorithm 1 vs same-ζ₀ oracle"]
-    {
+    for want in [
+        "Algorithm 1 alone",
+        "Algorithm 1 + polish",
+        "Oracle, same ζ₀",
+        "Oracle, best of 2 restarts",
+        "Δ Algorithm 1 alone vs same-ζ₀ oracle",
+        "Δ Algorithm 1 + polish vs same-ζ₀ oracle",
+    ] {
         assert!(names.contains(&want), "{names:?}");
     }
-    let alg1 = &md[names.iter().position(|n| *n == "Algorithm 1").unwrap()];
-    for cell in &alg1[1..3] {
-        let (m, s) = cell.split_once(" ± ").unwrap_or_else(|| panic!("mean ± std cell {cell:?}"));
-        assert!(m.parse::<f64>().is_ok() && s.parse::<f64>().is_ok(), "{cell}");
+    for row in ["Algorithm 1 alone", "Algorithm 1 + polish"] {
+        let alg1 = &md[names.iter().position(|n| *n == row).unwrap()];
+        for cell in &alg1[1..3] {
+            let (m, s) = cell.split_once(" ± ").unwrap_or_else(|| panic!("mean ± std cell {cell:?}"));
+            assert!(m.parse::<f64>().is_ok() && s.parse::<f64>().is_ok(), "{cell}");
+        }
     }
-    let delta = &md[names.iter().position(|n| n.starts_with("Δ Algorithm 1 vs same")).unwrap()];
+    let delta = &md[names.iter().position(|n| n.starts_with("Δ Algorithm 1 + polish vs same")).unwrap()];
     for cell in &delta[1..] {
         assert!(cell.ends_with('%') && cell.trim_end_matches('%').parse::<f64>().is_ok(), "{cell}");
     }
-    for stem in ["placements", "grad_norm", "learning_curves", "trajectories"] {
+    // Algorithm 1 alone is the exact J of the design before the polish, stored with its policy.
+    for r in rows.iter().filter(|r| r["method"] == "algorithm1") {
+        let result: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out_dir.join(&r["file"])).unwrap()).unwrap();
+        let polish = &result["details"]["polish"];
+        assert_eq!(polish["J_before"].as_f64().unwrap().to_string(), r["J_alone"], "{r:?}");
+        assert!(polish["policy_before"].is_array() && polish["zeta_before"].is_array());
+    }
+    for stem in ["designs", "grad_norm", "learning_curves", "trajectories"] {
         check_figure(&out_dir, stem);
     }
 
@@ -194,7 +210,7 @@ fn table_writes_parsable_reports_and_resumes_without_redoing_runs() {
     assert_eq!(std::fs::read_to_string(out_dir.join("table.csv")).unwrap(), csv_before);
 
     // An interrupted table: one run missing is the only one redone.
-    let missing = runs.join("algorithm1_k0.9_s2.json");
+    let missing = runs.join("algorithm1_kappa0.9_s2.json");
     std::fs::remove_file(&missing).unwrap();
     ok(&envpg(&table_args(&instance, out)));
     let after = mtimes(&runs);
@@ -268,21 +284,21 @@ fn plot_renders_every_figure_of_given_results() {
     ok(&envpg(&args));
     let runs = table.join("runs");
     let figs = tmp.path().join("figs");
-    let files: Vec<String> = ["algorithm1_k1_s1.json", "algorithm1_k1_s2.json", "oracle-best_k1.json"]
+    let files: Vec<String> = ["algorithm1_kappa1_s1.json", "algorithm1_kappa1_s2.json", "oracle-best_kappa1.json"]
         .iter()
         .map(|f| runs.join(f).to_str().unwrap().to_owned())
         .collect();
     let mut args = vec!["plot", "--out", figs.to_str().unwrap(), "--window", "3"];
     args.extend(files.iter().map(String::as_str));
     let stdout = ok(&envpg(&args));
-    for stem in ["placements", "grad_norm", "learning_curves", "trajectories"] {
+    for stem in ["designs", "grad_norm", "learning_curves", "trajectories"] {
         assert!(stdout.contains(&format!("{stem}.png")), "{stdout}");
         check_figure(&figs, stem);
     }
-    // Oracle results alone still give the placements figure.
+    // Oracle results alone still give the designs figure.
     let only = tmp.path().join("only");
     ok(&envpg(&["plot", "--out", only.to_str().unwrap(), &files[2]]));
-    check_figure(&only, "placements");
+    check_figure(&only, "designs");
     assert!(!only.join("grad_norm.svg").exists());
 
     // Bad input: a file that is not a result, and a zero window.

@@ -1,37 +1,42 @@
-//! Instance files: `{"name", "n_uav", "users": [[x, y], …], "dest": [x, y]}`.
+//! Instance files: one JSON object naming its environment, its parameters and the fields that
+//! environment defines.
 //!
-//! Loading is strict: unknown or duplicate keys, non-finite numbers, an empty user list or fewer
-//! than two UAVs are rejected with an error naming the file and the field.
+//! ```json
+//! {"env": "flpo", "name": "flpo-n10m4", "params": {"kappa": 1.0, "eta": 100.0}, "agents": [...], ...}
+//! ```
+//!
+//! - `env` names a registered environment; a file without it is a UAV instance (`"uav"`), as
+//!   every file was before environments were pluggable.
+//! - `params` holds the environment's numeric parameters; missing ones take the environment's
+//!   defaults and `--env-param KEY=VALUE` overrides them. A key the environment does not have
+//!   is an error.
+//! - Every other field belongs to the environment, which reads it with [`InstanceFile::field`]
+//!   and refuses fields it does not know ([`InstanceFile::expect_fields`]).
+//!
+//! Parsing is strict everywhere: duplicate keys at any depth, non-finite numbers and malformed
+//! values are errors naming the file and the field. [`InstanceFile::canonical`] is the form a
+//! result file stores: every field, the environment's name and *every* parameter actually
+//! used, so the result can be recomputed from the file alone.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use rand::SeedableRng;
-use rand_chacha::ChaCha12Rng;
-use rand_distr::{Distribution, Normal, Uniform};
-use serde::{Deserialize, Serialize};
+use serde::de::{DeserializeOwned, MapAccess, SeqAccess, Visitor};
+use serde::{Deserialize, Deserializer};
+use serde_json::{Map, Value};
 
-/// The bundled default instance (the paper's network, `launch/instances/uav271.json`),
-/// compiled in so binaries work from any directory.
-pub const BUNDLED_JSON: &str = include_str!("../../../launch/instances/uav271.json");
+/// The environment of an instance file without an `env` field.
+pub const DEFAULT_ENV: &str = "uav";
 
-/// The name by which the bundled instance is selected on command lines.
-pub const BUNDLED_NAME: &str = "uav271";
-
-/// Largest number of UAVs an instance may have (ζ travels in fixed-size protocol headers).
-pub const MAX_UAVS: usize = 32;
-
-/// A UAV relay-network instance: fixed users, the number of UAVs and the destination.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Instance {
-    /// Human-readable name.
-    pub name: String,
-    /// Number of UAVs M (ζ has 2M entries).
-    pub n_uav: usize,
-    /// User positions.
-    pub users: Vec<[f64; 2]>,
-    /// Destination position.
-    pub dest: [f64; 2],
+/// One numeric parameter of an environment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamSpec {
+    /// Its key in `params` and in `--env-param KEY=VALUE`.
+    pub name: &'static str,
+    /// The value when the instance does not set it.
+    pub default: f64,
+    /// One line about it, for `--help`-style listings.
+    pub about: &'static str,
 }
 
 /// Why an instance could not be loaded or is invalid.
@@ -45,253 +50,360 @@ pub enum InstanceError {
         /// The I/O error (kept out of the error chain: it is already in the message).
         err: std::io::Error,
     },
-    /// The file is not a well-formed instance object (syntax, types, unknown or duplicate keys).
-    #[error("malformed instance file {path}: {err}")]
+    /// The file is not a well-formed JSON object (syntax, duplicate keys, non-finite numbers).
+    #[error("malformed instance file {path}: {reason}")]
     Parse {
         /// The file (or `<inline>`).
         path: PathBuf,
-        /// The JSON error, with line and column.
-        err: serde_json::Error,
+        /// What is wrong, with line and column where known.
+        reason: String,
     },
     /// The object parsed but a field has an invalid value.
     #[error("invalid instance {path}: field `{field}`: {reason}")]
     Invalid {
         /// The file (or `<inline>`).
         path: PathBuf,
-        /// The offending field, e.g. `users[3]`.
+        /// The offending field, e.g. `users[3]` or `params.kappa`.
         field: String,
         /// What is wrong.
         reason: String,
     },
+    /// The file names an environment that is not registered.
+    #[error("instance {path} is for environment {env:?}, which is not registered (known: {known})")]
+    UnknownEnv {
+        /// The file.
+        path: PathBuf,
+        /// The name in the file.
+        env: String,
+        /// Registered names.
+        known: String,
+    },
+    /// A parameter (in the file's `params` or given with `--env-param`) the environment does
+    /// not have.
+    #[error("{origin}: environment `{env}` has no parameter {key:?} (its parameters: {known})")]
+    UnknownParam {
+        /// Where the key came from (the file, or `--env-param`).
+        origin: String,
+        /// The environment.
+        env: String,
+        /// The key.
+        key: String,
+        /// The environment's parameters.
+        known: String,
+    },
+    /// An instance of one environment where another was expected.
+    #[error("{path} is an instance of environment `{found}`, but `{expected}` is expected here")]
+    WrongEnv {
+        /// The file.
+        path: PathBuf,
+        /// The environment needed.
+        expected: String,
+        /// The environment of the file.
+        found: String,
+    },
 }
 
-impl Instance {
-    /// The bundled default instance.
-    pub fn bundled() -> Self {
-        Self::from_json_str(BUNDLED_JSON, "<bundled uav271>").expect("bundled instance is valid")
+/// An instance file as read and checked by the registry: its environment, name, resolved
+/// parameters and the remaining fields, which the environment interprets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InstanceFile {
+    origin: PathBuf,
+    env: String,
+    name: String,
+    params: BTreeMap<String, f64>,
+    fields: Map<String, Value>,
+}
+
+impl InstanceFile {
+    /// Parses `text` (from `origin`, named in errors) without resolving parameters: `env`,
+    /// `name` and the raw `params` are split off, everything else stays a field.
+    pub fn parse(text: &str, origin: impl AsRef<Path>) -> Result<Self, InstanceError> {
+        let origin = origin.as_ref().to_owned();
+        let value = strict_value(text).map_err(|reason| InstanceError::Parse { path: origin.clone(), reason })?;
+        Self::from_value(value, origin)
     }
 
-    /// Loads `spec`: the bundled instance's name (`uav271`) or a path to an instance file.
-    pub fn resolve(spec: &str) -> Result<Self, InstanceError> {
-        if spec == BUNDLED_NAME && !Path::new(spec).exists() { Ok(Self::bundled()) } else { Self::load(spec) }
-    }
-
-    /// Reads and validates an instance file.
-    pub fn load(path: impl AsRef<Path>) -> Result<Self, InstanceError> {
-        let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|err| InstanceError::Io { path: path.to_owned(), err })?;
-        Self::from_json_str(&text, path)
-    }
-
-    /// Parses and validates an instance from JSON text; `origin` names it in errors.
-    pub fn from_json_str(text: &str, origin: impl AsRef<Path>) -> Result<Self, InstanceError> {
-        let origin = origin.as_ref();
-        let inst: Instance =
-            serde_json::from_str(text).map_err(|err| InstanceError::Parse { path: origin.to_owned(), err })?;
-        inst.validate_as(origin)?;
-        Ok(inst)
-    }
-
-    /// Validates an instance that came from elsewhere (e.g. embedded in a result file).
-    pub fn from_value(value: serde_json::Value, origin: impl AsRef<Path>) -> Result<Self, InstanceError> {
-        let origin = origin.as_ref();
-        let inst: Instance =
-            serde_json::from_value(value).map_err(|err| InstanceError::Parse { path: origin.to_owned(), err })?;
-        inst.validate_as(origin)?;
-        Ok(inst)
-    }
-
-    /// Checks the invariants; `origin` names the instance in errors.
-    pub fn validate_as(&self, origin: &Path) -> Result<(), InstanceError> {
-        let invalid = |field: String, reason: String| InstanceError::Invalid { path: origin.to_owned(), field, reason };
-        if self.name.trim().is_empty() {
-            return Err(invalid("name".into(), "must be a non-empty string".into()));
-        }
-        if self.n_uav < 2 {
-            return Err(invalid("n_uav".into(), format!("must be at least 2, got {}", self.n_uav)));
-        }
-        if self.n_uav > MAX_UAVS {
-            return Err(invalid("n_uav".into(), format!("at most {MAX_UAVS} UAVs are supported, got {}", self.n_uav)));
-        }
-        if self.users.is_empty() {
-            return Err(invalid("users".into(), "must contain at least one user".into()));
-        }
-        for (i, u) in self.users.iter().enumerate() {
-            if !(u[0].is_finite() && u[1].is_finite()) {
-                return Err(invalid(format!("users[{i}]"), format!("coordinates must be finite, got {u:?}")));
+    /// As [`InstanceFile::parse`], from a JSON value (e.g. the instance stored in a result file).
+    pub fn from_value(value: Value, origin: impl AsRef<Path>) -> Result<Self, InstanceError> {
+        let origin = origin.as_ref().to_owned();
+        let invalid =
+            |field: &str, reason: String| InstanceError::Invalid { path: origin.clone(), field: field.into(), reason };
+        let Value::Object(mut fields) = value else {
+            return Err(InstanceError::Parse { path: origin, reason: "expected a JSON object".into() });
+        };
+        let env = match fields.remove("env") {
+            None => DEFAULT_ENV.to_owned(),
+            Some(Value::String(s)) if !s.trim().is_empty() => s,
+            Some(v) => return Err(invalid("env", format!("must be a non-empty string, got {v}"))),
+        };
+        let name = match fields.remove("name") {
+            Some(Value::String(s)) if !s.trim().is_empty() => s,
+            Some(v) => return Err(invalid("name", format!("must be a non-empty string, got {v}"))),
+            None => return Err(invalid("name", "is missing".into())),
+        };
+        let mut params = BTreeMap::new();
+        match fields.remove("params") {
+            None => {}
+            Some(Value::Object(p)) => {
+                for (k, v) in p {
+                    let x = v
+                        .as_f64()
+                        .filter(|x| x.is_finite())
+                        .ok_or_else(|| invalid(&format!("params.{k}"), format!("must be a finite number, got {v}")))?;
+                    params.insert(k, x);
+                }
             }
+            Some(v) => return Err(invalid("params", format!("must be an object of numbers, got {v}"))),
         }
-        if !(self.dest[0].is_finite() && self.dest[1].is_finite()) {
-            return Err(invalid("dest".into(), format!("coordinates must be finite, got {:?}", self.dest)));
+        Ok(Self { origin, env, name, params, fields })
+    }
+
+    /// Fills in the defaults of `specs`, applies `overrides` (from `--env-param`) and refuses
+    /// keys `specs` does not name.
+    pub fn resolve_params(&mut self, specs: &[ParamSpec], overrides: &[(String, f64)]) -> Result<(), InstanceError> {
+        let known = || specs.iter().map(|p| p.name).collect::<Vec<_>>().join(", ");
+        let unknown = |origin: String, key: &str| InstanceError::UnknownParam {
+            origin,
+            env: self.env.clone(),
+            key: key.to_owned(),
+            known: if specs.is_empty() { "none".into() } else { known() },
+        };
+        if let Some(k) = self.params.keys().find(|k| !specs.iter().any(|p| p.name == k.as_str())) {
+            return Err(unknown(format!("instance {}", self.origin.display()), k));
+        }
+        for (k, v) in overrides {
+            if !specs.iter().any(|p| p.name == k.as_str()) {
+                return Err(unknown("--env-param".into(), k));
+            }
+            if !v.is_finite() {
+                return Err(InstanceError::Invalid {
+                    path: "--env-param".into(),
+                    field: k.clone(),
+                    reason: format!("must be a finite number, got {v}"),
+                });
+            }
+            self.params.insert(k.clone(), *v);
+        }
+        for p in specs {
+            self.params.entry(p.name.to_owned()).or_insert(p.default);
         }
         Ok(())
     }
 
-    /// Number of users N.
-    pub fn n_users(&self) -> usize {
-        self.users.len()
+    /// Where the instance came from (a path, or `<bundled NAME>`).
+    pub fn origin(&self) -> &Path {
+        &self.origin
+    }
+    /// The environment's name.
+    pub fn env(&self) -> &str {
+        &self.env
+    }
+    /// The instance's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    /// Every parameter (after [`InstanceFile::resolve_params`]: every one the environment has).
+    pub fn params(&self) -> &BTreeMap<String, f64> {
+        &self.params
+    }
+    /// A resolved parameter; an error naming it if it is missing (an environment asking for a
+    /// parameter it did not declare).
+    pub fn param(&self, key: &str) -> Result<f64, InstanceError> {
+        self.params.get(key).copied().ok_or_else(|| self.invalid(&format!("params.{key}"), "is missing".into()))
+    }
+    /// The fields other than `env`, `name` and `params`.
+    pub fn fields(&self) -> &Map<String, Value> {
+        &self.fields
     }
 
-    /// Dimension of ζ (2M).
-    pub fn zeta_dim(&self) -> usize {
-        2 * self.n_uav
+    /// An [`InstanceError::Invalid`] naming this file and `field`.
+    pub fn invalid(&self, field: &str, reason: String) -> InstanceError {
+        InstanceError::Invalid { path: self.origin.clone(), field: field.to_owned(), reason }
     }
 
-    /// The users' bounding box `([min_x, min_y], [max_x, max_y])`.
-    pub fn user_bbox(&self) -> ([f64; 2], [f64; 2]) {
-        let mut lo = [f64::INFINITY; 2];
-        let mut hi = [f64::NEG_INFINITY; 2];
-        for u in &self.users {
-            for k in 0..2 {
-                lo[k] = lo[k].min(u[k]);
-                hi[k] = hi[k].max(u[k]);
-            }
+    /// A required field, deserialized.
+    pub fn field<T: DeserializeOwned>(&self, key: &str) -> Result<T, InstanceError> {
+        match self.fields.get(key) {
+            Some(v) => T::deserialize(v).map_err(|e| self.invalid(key, e.to_string())),
+            None => Err(self.invalid(key, "is missing".into())),
         }
-        (lo, hi)
     }
 
-    /// The squared diagonal of the bounding box of users and destination: the natural scale of
-    /// hop costs, used to pick default temperatures.
-    pub fn cost_scale(&self) -> f64 {
-        let (mut lo, mut hi) = self.user_bbox();
-        for k in 0..2 {
-            lo[k] = lo[k].min(self.dest[k]);
-            hi[k] = hi[k].max(self.dest[k]);
+    /// An optional field, deserialized.
+    pub fn optional_field<T: DeserializeOwned>(&self, key: &str) -> Result<Option<T>, InstanceError> {
+        self.fields.get(key).map(|v| T::deserialize(v).map_err(|e| self.invalid(key, e.to_string()))).transpose()
+    }
+
+    /// Refuses any field not in `known` (besides `env`, `name` and `params`).
+    pub fn expect_fields(&self, known: &[&str]) -> Result<(), InstanceError> {
+        match self.fields.keys().find(|k| !known.contains(&k.as_str())) {
+            Some(k) => Err(self.invalid(
+                k,
+                format!("unknown field for environment `{}` (its fields: {})", self.env, known.join(", ")),
+            )),
+            None => Ok(()),
         }
-        ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2)).max(1e-12)
     }
 
-    /// Serializes to pretty JSON.
-    pub fn to_json_pretty(&self) -> String {
-        serde_json::to_string_pretty(self).expect("instance serializes")
+    /// The canonical JSON of the instance: its fields, `env`, `name` and every parameter.
+    pub fn canonical(&self) -> Value {
+        let mut out = self.fields.clone();
+        out.insert("env".into(), Value::String(self.env.clone()));
+        out.insert("name".into(), Value::String(self.name.clone()));
+        let params: Map<String, Value> = self.params.iter().map(|(k, v)| (k.clone(), Value::from(*v))).collect();
+        out.insert("params".into(), Value::Object(params));
+        Value::Object(out)
     }
 }
 
-/// Parameters of [`generate`].
-#[derive(Debug, Clone)]
-pub struct GenerateSpec {
-    /// Instance name.
-    pub name: String,
-    /// Number of users.
-    pub n_users: usize,
-    /// Number of UAVs.
-    pub n_uav: usize,
-    /// Number of user clusters.
-    pub clusters: usize,
-    /// Side of the square region `[0, side]²`.
-    pub side: f64,
-    /// Standard deviation of users around their cluster centre.
-    pub spread: f64,
-    /// Seed of the generator.
-    pub seed: u64,
-}
-
-/// Generates a seeded instance with clustered users in `[0, side]²` and the destination near
-/// the lower-right corner (as in the bundled instance).
-pub fn generate(spec: &GenerateSpec) -> Result<Instance, InstanceError> {
-    let origin = Path::new("<generated>");
-    let invalid = |field: &str, reason: String| InstanceError::Invalid {
-        path: origin.to_owned(),
-        field: field.to_owned(),
-        reason,
-    };
-    if spec.n_users == 0 {
-        return Err(invalid("users", "need at least one user".into()));
-    }
-    if spec.clusters == 0 {
-        return Err(invalid("clusters", "need at least one cluster".into()));
-    }
-    if !(spec.side.is_finite() && spec.side > 0.0) {
-        return Err(invalid("side", format!("must be finite and positive, got {}", spec.side)));
-    }
-    if !(spec.spread.is_finite() && spec.spread >= 0.0) {
-        return Err(invalid("spread", format!("must be finite and non-negative, got {}", spec.spread)));
-    }
-    let mut rng = ChaCha12Rng::seed_from_u64(spec.seed);
-    let centre = Uniform::new(0.1 * spec.side, 0.8 * spec.side).expect("valid range");
-    let noise = Normal::new(0.0, spec.spread).expect("valid spread");
-    let centres: Vec<[f64; 2]> =
-        (0..spec.clusters).map(|_| [centre.sample(&mut rng), centre.sample(&mut rng)]).collect();
-    let users = (0..spec.n_users)
-        .map(|i| {
-            let c = centres[i % spec.clusters];
-            [
-                (c[0] + noise.sample(&mut rng)).clamp(0.0, spec.side),
-                (c[1] + noise.sample(&mut rng)).clamp(0.0, spec.side),
-            ]
+/// Reads 2-D points from a field: a list of `[x, y]` pairs of finite numbers, each named in
+/// errors (`users[3]`).
+pub fn points(file: &InstanceFile, key: &str) -> Result<Vec<[f64; 2]>, InstanceError> {
+    let raw: Vec<Vec<f64>> = file.field(key)?;
+    raw.iter()
+        .enumerate()
+        .map(|(i, p)| match p.as_slice() {
+            [x, y] if x.is_finite() && y.is_finite() => Ok([*x, *y]),
+            [_, _] => Err(file.invalid(&format!("{key}[{i}]"), format!("coordinates must be finite, got {p:?}"))),
+            _ => Err(file.invalid(&format!("{key}[{i}]"), format!("must be a pair [x, y], got {p:?}"))),
         })
-        .collect();
-    let inst =
-        Instance { name: spec.name.clone(), n_uav: spec.n_uav, users, dest: [0.95 * spec.side, 0.05 * spec.side] };
-    inst.validate_as(origin)?;
-    Ok(inst)
+        .collect()
+}
+
+/// Parses JSON text, refusing duplicate keys at any depth and numbers out of f64 range.
+fn strict_value(text: &str) -> Result<Value, String> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    let v = Strict::deserialize(&mut de).map_err(|e| e.to_string())?;
+    de.end().map_err(|e| e.to_string())?;
+    Ok(v.0)
+}
+
+/// A JSON value whose objects may not repeat a key.
+struct Strict(Value);
+
+impl<'de> Deserialize<'de> for Strict {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(StrictVisitor).map(Strict)
+    }
+}
+
+struct StrictVisitor;
+
+impl<'de> Visitor<'de> for StrictVisitor {
+    type Value = Value;
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a JSON value")
+    }
+    fn visit_bool<E>(self, v: bool) -> Result<Value, E> {
+        Ok(Value::Bool(v))
+    }
+    fn visit_i64<E>(self, v: i64) -> Result<Value, E> {
+        Ok(Value::from(v))
+    }
+    fn visit_u64<E>(self, v: u64) -> Result<Value, E> {
+        Ok(Value::from(v))
+    }
+    fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Value, E> {
+        serde_json::Number::from_f64(v).map(Value::Number).ok_or_else(|| E::custom(format!("number {v} is not finite")))
+    }
+    fn visit_str<E>(self, v: &str) -> Result<Value, E> {
+        Ok(Value::String(v.to_owned()))
+    }
+    fn visit_string<E>(self, v: String) -> Result<Value, E> {
+        Ok(Value::String(v))
+    }
+    fn visit_unit<E>(self) -> Result<Value, E> {
+        Ok(Value::Null)
+    }
+    fn visit_none<E>(self) -> Result<Value, E> {
+        Ok(Value::Null)
+    }
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Value, A::Error> {
+        let mut out = Vec::new();
+        while let Some(Strict(v)) = seq.next_element()? {
+            out.push(v);
+        }
+        Ok(Value::Array(out))
+    }
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Value, A::Error> {
+        let mut out = Map::new();
+        while let Some(key) = map.next_key::<String>()? {
+            if out.contains_key(&key) {
+                return Err(serde::de::Error::custom(format!("duplicate field `{key}`")));
+            }
+            let Strict(v) = map.next_value()?;
+            out.insert(key, v);
+        }
+        Ok(Value::Object(out))
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn parse(text: &str) -> Result<Instance, InstanceError> {
-        Instance::from_json_str(text, "t.json")
+    fn parse(text: &str) -> Result<InstanceFile, InstanceError> {
+        InstanceFile::parse(text, "t.json")
+    }
+
+    const SPECS: [ParamSpec; 2] =
+        [ParamSpec { name: "kappa", default: 1.0, about: "" }, ParamSpec { name: "eta", default: 100.0, about: "" }];
+
+    #[test]
+    fn a_file_without_env_is_a_uav_instance_and_params_take_defaults() {
+        let mut f = parse(r#"{"name":"a","n_uav":2}"#).unwrap();
+        assert_eq!(f.env(), "uav");
+        f.resolve_params(&SPECS, &[("eta".into(), 50.0)]).unwrap();
+        assert_eq!((f.param("kappa").unwrap(), f.param("eta").unwrap()), (1.0, 50.0));
+        let c = f.canonical();
+        assert_eq!(c["env"], "uav");
+        assert_eq!(c["params"]["eta"], 50.0);
+        assert_eq!(c["n_uav"], 2);
+        let again = InstanceFile::from_value(c.clone(), "r.json").unwrap();
+        assert_eq!(again.canonical(), c, "the canonical form is a fixed point");
     }
 
     #[test]
-    fn accepts_a_well_formed_instance() {
-        let i = parse(r#"{"name":"a","n_uav":2,"users":[[0,0],[1,2]],"dest":[3,4]}"#).unwrap();
-        assert_eq!(i.n_users(), 2);
-        assert_eq!(i.zeta_dim(), 4);
+    fn duplicate_keys_at_any_depth_are_refused_naming_the_file() {
+        let e = parse(r#"{"name":"a","n_uav":2,"n_uav":3}"#).unwrap_err().to_string();
+        assert!(e.contains("t.json") && e.contains("duplicate field `n_uav`"), "{e}");
+        let e = parse(r#"{"name":"a","params":{"kappa":1,"kappa":2}}"#).unwrap_err().to_string();
+        assert!(e.contains("duplicate field `kappa`"), "{e}");
     }
 
     #[test]
-    fn rejects_duplicate_keys_naming_file_and_field() {
-        let e = parse(r#"{"name":"a","n_uav":2,"n_uav":3,"users":[[0,0]],"dest":[3,4]}"#).unwrap_err();
-        let msg = e.to_string();
-        assert!(msg.contains("t.json") && msg.contains("duplicate field `n_uav`"), "{msg}");
+    fn unknown_params_are_named_with_the_known_ones() {
+        let mut f = parse(r#"{"name":"a","params":{"kapa":1}}"#).unwrap();
+        let e = f.resolve_params(&SPECS, &[]).unwrap_err().to_string();
+        assert!(e.contains("\"kapa\"") && e.contains("kappa, eta") && e.contains("t.json"), "{e}");
+        let mut f = parse(r#"{"name":"a"}"#).unwrap();
+        let e = f.resolve_params(&SPECS, &[("x".into(), 1.0)]).unwrap_err().to_string();
+        assert!(e.contains("--env-param") && e.contains("\"x\""), "{e}");
     }
 
     #[test]
-    fn rejects_unknown_keys() {
-        let e = parse(r#"{"name":"a","n_uav":2,"users":[[0,0]],"dest":[3,4],"x":1}"#).unwrap_err();
-        assert!(e.to_string().contains("unknown field `x`"), "{e}");
+    fn malformed_params_and_names_are_named() {
+        for (text, field) in [
+            (r#"{"name":"a","params":{"kappa":"high"}}"#, "params.kappa"),
+            (r#"{"name":"a","params":[1]}"#, "params"),
+            (r#"{"name":""}"#, "name"),
+            (r#"{"n_uav":2}"#, "name"),
+            (r#"{"name":"a","env":3}"#, "env"),
+        ] {
+            let e = parse(text).unwrap_err().to_string();
+            assert!(e.contains(&format!("`{field}`")), "{text}: {e}");
+        }
+        assert!(matches!(parse("[1]"), Err(InstanceError::Parse { .. })));
+        assert!(matches!(parse(r#"{"name":"a","x":1e400}"#), Err(InstanceError::Parse { .. })));
     }
 
     #[test]
-    fn rejects_empty_users_and_too_few_uavs() {
-        let e = parse(r#"{"name":"a","n_uav":2,"users":[],"dest":[3,4]}"#).unwrap_err();
-        assert!(e.to_string().contains("field `users`"), "{e}");
-        let e = parse(r#"{"name":"a","n_uav":1,"users":[[0,0]],"dest":[3,4]}"#).unwrap_err();
-        assert!(e.to_string().contains("field `n_uav`"), "{e}");
-    }
-
-    #[test]
-    fn rejects_non_finite_and_malformed_points() {
-        let e = parse(r#"{"name":"a","n_uav":2,"users":[[0,1e400]],"dest":[3,4]}"#).unwrap_err();
-        assert!(e.to_string().contains("t.json"), "{e}");
-        let e = parse(r#"{"name":"a","n_uav":2,"users":[[0,0,1]],"dest":[3,4]}"#).unwrap_err();
-        assert!(e.to_string().contains("malformed"), "{e}");
-        let inst = Instance { name: "a".into(), n_uav: 2, users: vec![[f64::NAN, 0.0]], dest: [0.0, 0.0] };
-        let e = inst.validate_as(Path::new("x")).unwrap_err();
-        assert!(e.to_string().contains("users[0]"), "{e}");
-    }
-
-    #[test]
-    fn generate_is_seeded_and_valid() {
-        let spec =
-            GenerateSpec { name: "g".into(), n_users: 50, n_uav: 3, clusters: 4, side: 10.0, spread: 0.5, seed: 7 };
-        let a = generate(&spec).unwrap();
-        let b = generate(&spec).unwrap();
-        assert_eq!(a, b);
-        let c = generate(&GenerateSpec { seed: 8, ..spec }).unwrap();
-        assert_ne!(a, c);
-        assert_eq!(a.n_users(), 50);
-    }
-
-    #[test]
-    fn bundled_instance_loads() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../launch/instances/uav271.json");
-        let i = Instance::load(path).unwrap();
-        assert_eq!((i.n_users(), i.n_uav), (271, 5));
-        assert_eq!(Instance::bundled(), i);
-        assert_eq!(Instance::resolve("uav271").unwrap(), i);
+    fn points_and_fields_are_checked_by_name() {
+        let f = parse(r#"{"name":"a","users":[[0,1],[2,3,4]],"extra":1}"#).unwrap();
+        let e = points(&f, "users").unwrap_err().to_string();
+        assert!(e.contains("`users[1]`"), "{e}");
+        let e = f.expect_fields(&["users"]).unwrap_err().to_string();
+        assert!(e.contains("`extra`") && e.contains("unknown field"), "{e}");
+        assert!(f.field::<usize>("n_uav").unwrap_err().to_string().contains("`n_uav`: is missing"));
     }
 }

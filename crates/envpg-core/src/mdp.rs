@@ -1,36 +1,93 @@
 //! The two views of a finite parameterized MDP: the black-box sampler ([`ParamMdp`]) and the
 //! model ([`ModelMdp`]). States and actions are dense indices; actions are *global* indices
 //! (`0..n_actions`) of which each state allows a subset.
+//!
+//! Both traits are object safe: envpg's tools hold environments as `dyn` trait objects built by
+//! a [`crate::Registry`], and algorithms are generic over `E: ParamMdp + ?Sized`, so they run on
+//! a concrete type as well as on a registered one.
 
-use rand::Rng;
+use std::ops::Range;
+
+use crate::rng::StreamRng;
+use crate::zeta::ZetaSpace;
+
+/// The randomness an environment draws from: one of envpg's reproducible streams (ChaCha12),
+/// always supplied by the caller, so that the same episode replays bit for bit wherever it
+/// runs. Draw from it with [`rand::RngExt`] (`rng.random::<f64>()`, `rng.random_range(0..n)`).
+pub type EnvRng = StreamRng;
 
 /// A finite MDP whose dynamics depend on a real parameter vector ζ, seen as a black box.
 ///
 /// This is everything model-free code may use: which actions are valid, where episodes start,
-/// when they end and what one step at a given ζ returns.
-pub trait ParamMdp {
+/// when they end, what one step at a given ζ returns, and a few optional hooks whose defaults
+/// suit any environment. The sampler is only ever called with a ζ inside
+/// [`ParamMdp::zeta_space`]'s bounds.
+pub trait ParamMdp: Send + Sync {
     /// Number of states `|S|`.
     fn n_states(&self) -> usize;
     /// Number of global actions `|A|`.
     fn n_actions(&self) -> usize;
-    /// Dimension of ζ.
-    fn zeta_dim(&self) -> usize;
+    /// The design space: ζ's dimension, coordinate names and box bounds.
+    fn zeta_space(&self) -> &ZetaSpace;
     /// The valid actions of `s`, in increasing order; empty exactly for terminal states.
     fn valid_actions(&self, s: usize) -> &[usize];
     /// Whether `s` is terminal (absorbing and cost-free).
     fn is_terminal(&self, s: usize) -> bool;
     /// Draws an initial state from μ.
-    fn sample_initial<R: Rng + ?Sized>(&self, rng: &mut R) -> usize;
-    /// Draws a start state for *exploring starts*: a non-terminal state outside μ's usual
+    fn sample_initial(&self, rng: &mut EnvRng) -> usize;
+    /// Takes action `a` in state `s` with the environment at parameter `zeta`; returns the
+    /// successor state and the cost of the transition. All randomness comes from `rng`.
+    fn step(&self, s: usize, a: usize, zeta: &[f64], rng: &mut EnvRng) -> (usize, f64);
+
+    /// Discount factor γ ∈ (0, 1]; γ = 1 (the default) is a stochastic shortest path problem,
+    /// which needs cost-free terminal states that every proper policy reaches.
+    fn gamma(&self) -> f64 {
+        1.0
+    }
+    /// Dimension of ζ.
+    fn zeta_dim(&self) -> usize {
+        self.zeta_space().dim()
+    }
+
+    /// Hook: a start state for *exploring starts* — a non-terminal state outside μ's usual
     /// reach that a simulator can be put in directly. Defaults to [`ParamMdp::sample_initial`].
-    fn sample_exploring_start<R: Rng + ?Sized>(&self, rng: &mut R) -> usize {
+    fn sample_exploring_start(&self, rng: &mut EnvRng) -> usize {
         self.sample_initial(rng)
     }
-    /// Takes action `a` in state `s` with the environment at parameter `zeta`; returns the
-    /// successor state and the cost of the transition.
-    fn step<R: Rng + ?Sized>(&self, s: usize, a: usize, zeta: &[f64], rng: &mut R) -> (usize, f64);
-    /// Discount factor γ ∈ (0, 1]; γ = 1 is a stochastic shortest path problem.
-    fn gamma(&self) -> f64;
+    /// Hook: a random initial design (the `random` ζ₀ of Algorithm 1 and of the oracle's
+    /// restarts). Defaults to [`ZetaSpace::sample`]: uniform over the bounds.
+    fn random_design(&self, rng: &mut EnvRng) -> Vec<f64> {
+        self.zeta_space().sample(rng)
+    }
+    /// Hook: a problem-specific initial design built from observable data only (the `env` ζ₀),
+    /// if the environment has one.
+    fn heuristic_design(&self) -> Option<Vec<f64>> {
+        None
+    }
+    /// Hook: the *design elements* — groups of ζ coordinates that place something the process
+    /// visits (a relay, a facility), with the states that visit it. Algorithm 1 tracks their
+    /// visits to find idle ones (see [`ParamMdp::relocate`]) and routes the ζ input by them.
+    fn design_elements(&self) -> Vec<DesignElement> {
+        Vec::new()
+    }
+    /// Hook: new coordinates for the idle design element `element` that would serve the hop
+    /// `from → to` observed in an episode (Algorithm 1's relocation of idle elements, whose
+    /// ζ-gradient is exactly zero). `None`: leave it where it is (the default).
+    fn relocate(&self, element: &DesignElement, zeta: &[f64], from: usize, to: usize) -> Option<Vec<f64>> {
+        let _ = (element, zeta, from, to);
+        None
+    }
+}
+
+/// A group of ζ coordinates that places something the process visits (see
+/// [`ParamMdp::design_elements`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DesignElement {
+    /// Its coordinates in ζ.
+    pub coords: Range<usize>,
+    /// The states at which the process is *at* this element (one for a relay; a facility that
+    /// several destinations share has one state per destination).
+    pub states: Vec<usize>,
 }
 
 /// The outcomes of one state–action pair at one ζ, optionally with their ζ-derivatives.
@@ -69,9 +126,59 @@ impl Outcomes {
         self.dprob.clear();
         self.dcost.clear();
     }
+
+    /// Appends one outcome; with `grad`, also zeroed derivative rows of length `d` that the
+    /// caller fills through [`Outcomes::last_dprob`] and [`Outcomes::last_dcost`].
+    pub fn push(&mut self, next: usize, prob: f64, cost: f64, grad: bool, d: usize) {
+        self.next.push(next);
+        self.prob.push(prob);
+        self.cost.push(cost);
+        if grad {
+            self.dprob.resize(self.dprob.len() + d, 0.0);
+            self.dcost.resize(self.dcost.len() + d, 0.0);
+        }
+    }
+
+    /// `∂p/∂ζ` of the last outcome pushed.
+    pub fn last_dprob(&mut self, d: usize) -> &mut [f64] {
+        let n = self.dprob.len();
+        &mut self.dprob[n - d..]
+    }
+
+    /// `∂c/∂ζ` of the last outcome pushed.
+    pub fn last_dcost(&mut self, d: usize) -> &mut [f64] {
+        let n = self.dcost.len();
+        &mut self.dcost[n - d..]
+    }
+}
+
+/// Scales from which the oracle derives its default temperatures and horizon
+/// ([`ModelMdp::oracle_hints`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OracleHints {
+    /// A typical cost of one episode (for the UAV network, the squared extent of the
+    /// instance): the hot start of deterministic annealing is ten times this.
+    pub cost_scale: f64,
+    /// Starting temperature of warm restarts.
+    pub warm_alpha0: f64,
+    /// Last positive temperature.
+    pub alpha_min: f64,
+    /// Stages of the finite-horizon form (enough for every simple path through the states
+    /// that loop).
+    pub horizon: usize,
+}
+
+impl OracleHints {
+    /// Hints proportional to `cost_scale`: warm restarts start at `cost_scale / 160` and the
+    /// last temperature is `cost_scale / 80 000`.
+    pub fn from_cost_scale(cost_scale: f64, horizon: usize) -> Self {
+        Self { cost_scale, warm_alpha0: cost_scale / 160.0, alpha_min: cost_scale / 80_000.0, horizon }
+    }
 }
 
 /// The model view of a [`ParamMdp`]: exact transition probabilities, costs and derivatives.
+///
+/// Used by the exact evaluator and the oracle (`envpg-model`), never by model-free training.
 pub trait ModelMdp: ParamMdp {
     /// The initial-state distribution μ as `(state, probability)` pairs.
     fn initial_distribution(&self) -> Vec<(usize, f64)>;
@@ -131,18 +238,11 @@ pub trait ModelMdp: ParamMdp {
             base += buf.len();
         }
     }
-}
 
-/// What a learner may observe about states and actions beyond their indices: 2-D positions.
-///
-/// For the UAV network the positions of UAV states *are* entries of ζ, so a learner's features
-/// move with ζ; [`Observable::zeta_index`] tells which entries, so input gradients can be routed
-/// back to ζ.
-pub trait Observable: ParamMdp {
-    /// The state an action aims at (its *target*).
-    fn action_target(&self, a: usize) -> usize;
-    /// The position of state `s` when the design is `zeta`.
-    fn position(&self, s: usize, zeta: &[f64]) -> [f64; 2];
-    /// If the position of `s` is read from ζ, the index of its x-coordinate (y follows).
-    fn zeta_index(&self, s: usize) -> Option<usize>;
+    /// Hook: the scales of the oracle's defaults. The default assumes episode costs of order 1
+    /// and a horizon of one stage per non-terminal state (at most 64).
+    fn oracle_hints(&self) -> OracleHints {
+        let live = (0..self.n_states()).filter(|&s| !self.is_terminal(s)).count();
+        OracleHints::from_cost_scale(1.0, live.clamp(1, 64))
+    }
 }

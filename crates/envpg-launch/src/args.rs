@@ -2,30 +2,37 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
 use envpg_ac::trainer::RunSpec;
 use envpg_ac::{AcConfig, ActorUpdate, CriticInit, Zeta0, ZetaEstimator, ZetaInput, ZetaOptimizer};
-use envpg_core::{Instance, ResultFile};
+use envpg_core::{LoadedEnv, Registry, ResultFile};
 
 /// What to train: problem, seed, preset and per-setting overrides.
 #[derive(Debug, Clone, Args)]
 pub struct TrainArgs {
-    /// Instance: `uav271` (bundled) or a path to an instance JSON file.
+    /// Instance: a bundled one (`uav271`, `aac1800`, `flpo-n10m4`) or a path to an instance
+    /// JSON file, which names its environment (`"env"`; none: `uav`).
     #[arg(long, default_value = "uav271")]
     pub instance: String,
-    /// Probability κ ∈ (0, 1] that a hop reaches its intended target.
-    #[arg(long, default_value_t = 1.0)]
-    pub kappa: f64,
-    /// Concentration η ≥ 0 of off-target moves.
-    #[arg(long, default_value_t = 100.0)]
-    pub eta: f64,
+    /// Override a parameter of the instance's environment: `--env-param deviation=0.3`
+    /// (repeatable; the environment's parameters and defaults are listed by `envpg envs`).
+    #[arg(long = "env-param", value_name = "KEY=VALUE")]
+    pub env_params: Vec<String>,
+    /// Shorthand for `--env-param kappa=K` (uav, flpo): probability that a hop reaches its
+    /// intended target.
+    #[arg(long)]
+    pub kappa: Option<f64>,
+    /// Shorthand for `--env-param eta=E` (uav, flpo): concentration of off-target moves.
+    #[arg(long)]
+    pub eta: Option<f64>,
     /// Run seed: network initialisation, ζ₀, every episode and minibatch stream.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Preset name in the preset file.
-    #[arg(long, default_value = "uav")]
-    pub preset: String,
+    /// Preset name in the preset file [default: the preset named like the environment (`uav`,
+    /// `aac`, `flpo`), or `uav` for an environment without one].
+    #[arg(long)]
+    pub preset: Option<String>,
     /// Preset file [default: the bundled launch/presets.toml].
     #[arg(long)]
     pub presets: Option<PathBuf>,
@@ -50,9 +57,9 @@ pub struct TrainArgs {
     /// σ of the per-step perturbation of ζ.
     #[arg(long)]
     pub sigma: Option<f64>,
-    /// Iterations of the ζ polish after training: ζ refined for the greedy routing (improved
-    /// along the way by `--polish-routing` rounds) by central differences of sampled episodes
-    /// with common random numbers (0: none).
+    /// Iterations of the ζ polish after training: ζ refined for the greedy policy (improved
+    /// along the way by `--polish-policy-rounds` rounds) by central differences of sampled
+    /// episodes with common random numbers (0: none).
     #[arg(long)]
     pub polish_iterations: Option<usize>,
     /// Episodes per sampled-cost estimate of the polish.
@@ -64,13 +71,13 @@ pub struct TrainArgs {
     /// First step length of the polish.
     #[arg(long)]
     pub polish_step: Option<f64>,
-    /// Rounds of sampled policy iteration on the routing during the polish (0: the actor's
-    /// greedy routing stays frozen).
-    #[arg(long)]
-    pub polish_routing: Option<usize>,
-    /// One-step samples per (state, action), and rollouts per state, of a routing round.
-    #[arg(long)]
-    pub polish_routing_samples: Option<usize>,
+    /// Rounds of sampled policy iteration on the policy during the polish (0: the actor's
+    /// greedy policy stays frozen).
+    #[arg(long, alias = "polish-routing")]
+    pub polish_policy_rounds: Option<usize>,
+    /// One-step samples per (state, action), and rollouts per state, of a policy round.
+    #[arg(long, alias = "polish-routing-samples")]
+    pub polish_policy_samples: Option<usize>,
     /// Starting designs of the polish: the final design and others around it; each is
     /// screened, and the one with the lowest sampled cost is polished (1: final design only).
     #[arg(long)]
@@ -87,8 +94,9 @@ pub struct TrainArgs {
     /// Hidden widths, e.g. `64,64`.
     #[arg(long, value_delimiter = ',')]
     pub hidden: Option<Vec<usize>>,
-    /// How ζ itself enters the networks: `routed` (the `uav` preset: (ζ − ζ_k)/L in a slot of the
-    /// pair's action and one of its state), `centered` ((ζ − ζ_k)/L), `absolute`, `none`.
+    /// How ζ itself enters the networks: `routed` ((ζ − ζ_k)/scale in a slot of the pair's
+    /// action and one of its state's design element), `centered` ((ζ − ζ_k)/scale), `absolute`,
+    /// `none`.
     #[arg(long, value_enum)]
     pub zeta_input: Option<ZetaInputArg>,
     /// Critic learning rate.
@@ -133,10 +141,11 @@ pub struct TrainArgs {
     /// ζ-gradient estimator: `sampled` (the paper's), `baseline`, `expected`, `corollary`.
     #[arg(long, value_enum)]
     pub zeta_estimator: Option<ZetaEstimatorArg>,
-    /// Every this many iterations move one idle UAV next to the busiest one (0: never).
+    /// Every this many iterations move one idle design element (a UAV, a facility) to where it
+    /// would serve the costliest hop (0: never).
     #[arg(long)]
     pub relocate_every: Option<usize>,
-    /// Idle means a recent visit rate below this fraction of the busiest UAV's.
+    /// Idle means a recent visit rate below this fraction of the busiest element's.
     #[arg(long)]
     pub relocate_below: Option<f64>,
     /// Fraction of capped on-policy episodes above which the run is looping (1: ignore loops).
@@ -157,8 +166,10 @@ pub struct TrainArgs {
     /// Final temperature (when υ is automatic).
     #[arg(long)]
     pub alpha_final: Option<f64>,
-    /// Initial design: `random`, `users` (relay chain from the users' centroid to the
-    /// destination), 2M comma-separated numbers, or a result file (its `zeta0`).
+    /// Initial design: `random` (the environment's random design), `env` (its own starting
+    /// design: for uav the relay chain from the users' centroid to the destination, also
+    /// accepted as `users`; for flpo the benchmark's `initial_facilities`), d comma-separated
+    /// numbers inside the design bounds, or a result file on the same instance (its `zeta0`).
     #[arg(long)]
     pub zeta0: Option<String>,
     /// Record the exact J of (ζ_k, greedy π_k) every this many iterations (reporting only).
@@ -219,20 +230,40 @@ pub enum ZetaEstimatorArg {
     Corollary,
 }
 
+/// `KEY=VALUE` parameter overrides from `--env-param` and the `--kappa`/`--eta` shorthands.
+pub fn env_overrides(params: &[String], kappa: Option<f64>, eta: Option<f64>) -> Result<Vec<(String, f64)>> {
+    let mut out = Vec::new();
+    for p in params {
+        let Some((k, v)) = p.split_once('=') else {
+            bail!(crate::InputError(format!("--env-param {p:?}: expected KEY=VALUE")));
+        };
+        let x: f64 = v
+            .trim()
+            .parse()
+            .map_err(|_| crate::InputError(format!("--env-param {p:?}: {:?} is not a number", v.trim())))?;
+        out.push((k.trim().to_owned(), x));
+    }
+    out.extend(kappa.map(|k| ("kappa".to_owned(), k)));
+    out.extend(eta.map(|e| ("eta".to_owned(), e)));
+    Ok(out)
+}
+
 impl TrainArgs {
-    /// The validated run specification.
-    pub fn spec(&self) -> Result<RunSpec> {
-        let instance = Instance::resolve(&self.instance)?;
-        let mut c = match &self.presets {
-            Some(p) => AcConfig::from_preset(p, &self.preset)?,
-            None => AcConfig::bundled(&self.preset)?,
+    /// The environment and the validated run specification.
+    pub fn spec(&self, registry: &Registry) -> Result<(LoadedEnv, RunSpec)> {
+        let env = registry.load(&self.instance, &env_overrides(&self.env_params, self.kappa, self.eta)?)?;
+        let mut c = match (&self.presets, &self.preset) {
+            (Some(p), Some(name)) => AcConfig::from_preset(p, name)?,
+            (Some(p), None) => AcConfig::from_preset_for(p, env.name)?,
+            (None, Some(name)) => AcConfig::bundled(name)?,
+            (None, None) => AcConfig::bundled_for(env.name)?,
         };
         macro_rules! set {
             ($($f:ident),*) => { $( if let Some(v) = self.$f.clone() { c.$f = v; } )* };
         }
         set!(iterations, episodes, explore_episodes, explore_eps, explore_start, episode_cap, sigma, hidden);
         set!(sigma_anneal, polish_iterations, polish_episodes, polish_h, polish_step);
-        set!(polish_routing, polish_routing_samples, polish_candidates, polish_spread, polish_screen);
+        set!(polish_policy_rounds, polish_policy_samples, polish_candidates, polish_spread, polish_screen);
         set!(critic_lr, critic_steps, batch, polyak, actor_lr, actor_steps, warmup, zeta_lr, zeta_lr_decay);
         set!(zeta_clip, alpha0, alpha_decay, alpha_final, eval_every, relocate_every, relocate_below);
         set!(loop_tolerance, alpha_backoff, zeta_average);
@@ -271,39 +302,41 @@ impl TrainArgs {
             };
         }
         if let Some(z) = &self.zeta0 {
-            c.zeta0 = parse_zeta0(z, &instance)?;
+            c.zeta0 = parse_zeta0(z, &env)?;
         }
         c.validate()?;
-        if !(self.kappa.is_finite() && self.kappa > 0.0 && self.kappa <= 1.0) {
-            bail!(envpg_core::UavParamError::Kappa(self.kappa));
-        }
-        if !(self.eta.is_finite() && self.eta >= 0.0) {
-            bail!(envpg_core::UavParamError::Eta(self.eta));
-        }
-        Ok(RunSpec { instance, kappa: self.kappa, eta: self.eta, seed: self.seed, config: c })
+        let spec = RunSpec::new(&env, self.seed, c);
+        // ζ₀ is checked now (inside the bounds, an `env` design that exists), not by the workers.
+        envpg_ac::zeta0::initial_design(env.sampler(), &spec.config.zeta0, spec.seed)
+            .map_err(|e| crate::InputError(format!("--zeta0: {e}")))?;
+        Ok((env, spec))
     }
 }
 
-fn parse_zeta0(text: &str, instance: &Instance) -> Result<Zeta0> {
+/// `--zeta0`: `random`, `env` (or `users`), a result file on the same instance, or numbers.
+fn parse_zeta0(text: &str, env: &LoadedEnv) -> Result<Zeta0> {
     match text {
         "random" => return Ok(Zeta0::Random),
-        "users" => return Ok(Zeta0::Users),
+        "env" | "users" => return Ok(Zeta0::Env),
         _ => {}
     }
     if std::path::Path::new(text).is_file() {
         let r = ResultFile::load(text)?;
-        if r.instance != *instance {
-            bail!("--zeta0 {text}: computed on instance {:?}, not {:?}", r.instance.name, instance.name);
+        if r.instance != env.instance {
+            bail!(crate::InputError(format!(
+                "--zeta0 {text}: computed on instance {:?} ({}), not {:?} ({})",
+                r.instance_name(),
+                r.env,
+                env.title,
+                env.name
+            )));
         }
         return Ok(Zeta0::Given(r.zeta0));
     }
-    let z: Vec<f64> = text
-        .split(',')
-        .map(|t| t.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--zeta0 {text:?}: expected random, users, a result file or numbers"))?;
-    if z.len() != instance.zeta_dim() || z.iter().any(|x| !x.is_finite()) {
-        bail!("--zeta0 needs {} finite numbers, got {}", instance.zeta_dim(), z.len());
-    }
+    let z: Vec<f64> =
+        text.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| {
+            crate::InputError(format!("--zeta0 {text:?}: expected random, env, a result file or numbers"))
+        })?;
+    env.sampler().zeta_space().check(&z).map_err(|e| crate::InputError(format!("--zeta0: {e}")))?;
     Ok(Zeta0::Given(z))
 }

@@ -16,7 +16,7 @@ use anyhow::Result;
 use envpg_ac::nets::ActionSets;
 use envpg_ac::rollout::run_iteration;
 use envpg_ac::trainer::RunSpec;
-use envpg_core::{Streams, UavNetwork};
+use envpg_core::{LoadedEnv, Streams};
 use envpg_learner::{LearnerConfig, run_learner};
 use envpg_protocol::{Checkpoint, PROTOCOL_VERSION};
 use envpg_transport::{LearnerEnd, LinkSizes, WorkerEnd, ipc, local};
@@ -60,10 +60,11 @@ pub struct Report {
     pub broadcast_latency_us: [f64; 3],
 }
 
-fn collect_cfg(run_id: &str, spec: &RunSpec, workers: usize) -> LearnerConfig {
+fn collect_cfg(run_id: &str, env: &LoadedEnv, spec: &RunSpec, workers: usize) -> LearnerConfig {
     LearnerConfig {
         run_id: run_id.to_owned(),
         spec: spec.clone(),
+        env: env.clone(),
         max_workers: workers + 2,
         worker_timeout: Duration::from_secs(5),
         checkpoint: None,
@@ -73,10 +74,10 @@ fn collect_cfg(run_id: &str, spec: &RunSpec, workers: usize) -> LearnerConfig {
     }
 }
 
-fn raw(spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
-    let (net, zeta0, learner) = spec.start()?;
-    let env = CostlyEnv { inner: net, cost: Duration::from_micros(cost_us) };
-    let sets = ActionSets::new(&env.inner);
+fn raw(loaded: &LoadedEnv, spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
+    let (zeta0, learner) = spec.start_on(loaded)?;
+    let env = CostlyEnv { inner: loaded.shared_sampler(), cost: Duration::from_micros(cost_us) };
+    let sets = ActionSets::new(&env);
     let streams = Streams::new(spec.seed);
     let start = Instant::now();
     let mut transitions = 0u64;
@@ -90,12 +91,12 @@ fn raw(spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
     Ok(Throughput { mode: "raw".into(), workers: 0, transitions, seconds, per_second: transitions as f64 / seconds })
 }
 
-fn in_process(spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
+fn in_process(env: &LoadedEnv, spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
     let run_id = new_run_id();
-    let lcfg = collect_cfg(&run_id, spec, 1);
+    let lcfg = collect_cfg(&run_id, env, spec, 1);
     let start = Instant::now();
     let stats = std::thread::scope(|scope| {
-        let wcfg = worker_cfg(&run_id, spec, 0, cost_us);
+        let wcfg = worker_cfg(&run_id, env, spec, 0, cost_us);
         scope.spawn(move || run_worker::<local::Service>(&wcfg));
         run_learner::<local::Service>(&lcfg, |_| true).map(|(_, s)| s)
     })?;
@@ -109,10 +110,11 @@ fn in_process(spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
     })
 }
 
-fn worker_cfg(run_id: &str, spec: &RunSpec, id: u32, cost_us: u64) -> WorkerConfig {
+fn worker_cfg(run_id: &str, env: &LoadedEnv, spec: &RunSpec, id: u32, cost_us: u64) -> WorkerConfig {
     WorkerConfig {
         run_id: run_id.to_owned(),
         spec: spec.clone(),
+        env: env.clone(),
         worker_id: id,
         incarnation: 1,
         protocol: PROTOCOL_VERSION,
@@ -122,7 +124,7 @@ fn worker_cfg(run_id: &str, spec: &RunSpec, id: u32, cost_us: u64) -> WorkerConf
     }
 }
 
-fn ipc_workers(spec: &RunSpec, cost_us: u64, workers: usize, dir: &Path) -> Result<Throughput> {
+fn ipc_workers(env: &LoadedEnv, spec: &RunSpec, cost_us: u64, workers: usize, dir: &Path) -> Result<Throughput> {
     let run_id = new_run_id();
     let run = RunFile {
         run_id: run_id.clone(),
@@ -145,7 +147,7 @@ fn ipc_workers(spec: &RunSpec, cost_us: u64, workers: usize, dir: &Path) -> Resu
         })
         .collect::<std::io::Result<_>>()?;
     let start = Instant::now();
-    let res = run_learner::<ipc::Service>(&collect_cfg(&run_id, spec, workers), |_| true);
+    let res = run_learner::<ipc::Service>(&collect_cfg(&run_id, env, spec, workers), |_| true);
     let seconds = start.elapsed().as_secs_f64();
     for c in &mut children {
         let _ = c.wait();
@@ -215,13 +217,20 @@ fn broadcast_latency(n: usize, rounds: usize) -> Result<[f64; 3]> {
 
 /// Runs every measurement of the benchmark `repeats` times, interleaved so that slow phases of a
 /// shared machine hit every mode alike, and keeps each mode's median.
-pub fn run(spec: &RunSpec, cost_us: u64, worker_counts: &[usize], repeats: usize, dir: &Path) -> Result<Report> {
+pub fn run(
+    env: &LoadedEnv,
+    spec: &RunSpec,
+    cost_us: u64,
+    worker_counts: &[usize],
+    repeats: usize,
+    dir: &Path,
+) -> Result<Report> {
     let episodes = spec.config.episodes + spec.config.explore_episodes;
     let mut rounds: Vec<Vec<Throughput>> = Vec::new();
     for _ in 0..repeats.max(1) {
-        let mut round = vec![raw(spec, cost_us)?, in_process(spec, cost_us)?];
+        let mut round = vec![raw(env, spec, cost_us)?, in_process(env, spec, cost_us)?];
         for &w in worker_counts {
-            round.push(ipc_workers(spec, cost_us, w, dir)?);
+            round.push(ipc_workers(env, spec, cost_us, w, dir)?);
         }
         rounds.push(round);
     }
@@ -239,11 +248,7 @@ pub fn run(spec: &RunSpec, cost_us: u64, worker_counts: &[usize], repeats: usize
             }
         })
         .collect();
-    let n = {
-        let (_, _, l) = spec.start()?;
-        l.actor().n_params()
-    };
-    let _ = UavNetwork::new(spec.instance.clone(), spec.kappa, spec.eta)?;
+    let n = spec.start_on(env)?.1.actor().n_params();
     Ok(Report {
         emulator_cost_us: cost_us,
         iterations: spec.config.iterations,

@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use anyhow::Result;
 use envpg_ac::trainer::Progress;
-use envpg_core::ResultFile;
+use envpg_core::{LoadedEnv, ResultFile};
 use envpg_learner::{CheckpointPolicy, LearnerConfig, LinkStats, run_learner};
 use envpg_protocol::{Checkpoint, PROTOCOL_VERSION};
 use envpg_transport::local;
@@ -16,6 +16,7 @@ use crate::run_dir::RunFile;
 /// Runs learner and `run.workers` workers (at least one) as threads.
 pub fn run(
     run: &RunFile,
+    env: &LoadedEnv,
     checkpoint: Option<CheckpointPolicy>,
     resume: Option<Checkpoint>,
     progress: impl FnMut(&Progress) -> bool,
@@ -24,6 +25,7 @@ pub fn run(
     let lcfg = LearnerConfig {
         run_id: run.run_id.clone(),
         spec: run.spec.clone(),
+        env: env.clone(),
         max_workers: workers + 2,
         worker_timeout: Duration::from_millis(run.worker_timeout_ms),
         checkpoint,
@@ -36,6 +38,7 @@ pub fn run(
             let wcfg = WorkerConfig {
                 run_id: run.run_id.clone(),
                 spec: run.spec.clone(),
+                env: env.clone(),
                 worker_id: i as u32,
                 incarnation: 1,
                 protocol: PROTOCOL_VERSION,

@@ -99,7 +99,7 @@ mod imp {
         Err(NotBuilt.into())
     }
 
-    pub fn worker_host(_h: &WorkerHost) -> Result<()> {
+    pub fn worker_host(_h: &WorkerHost, _registry: &envpg_core::Registry) -> Result<()> {
         Err(NotBuilt.into())
     }
 }
@@ -213,7 +213,7 @@ mod imp {
 
     /// `envpg-launch worker --connect`: joins the learner host, mirrors its run locally and
     /// runs `workers` worker processes (restarting crashed ones) until the run ends.
-    pub fn worker_host(h: &WorkerHost) -> Result<()> {
+    pub fn worker_host(h: &WorkerHost, registry: &envpg_core::Registry) -> Result<()> {
         if h.workers == 0 {
             return Err(crate::InputError("--workers must be at least 1".into()).into());
         }
@@ -227,6 +227,12 @@ mod imp {
         })?;
         let joined = bridge.joined().clone();
         let mut run: RunFile = serde_json::from_str(&joined.run).context("the learner's run description")?;
+        // The workers build the run's environment from its description: this build must know it.
+        run.spec.load(registry).map_err(|e| {
+            crate::InputError(format!(
+                "this host cannot build the run's environment ({e}); use a build that registers it"
+            ))
+        })?;
         // A local run id: the mirror's services must not collide with a learner on this host.
         let local = new_run_id();
         let dir = std::env::temp_dir().join(format!("envpg-remote-{local}"));

@@ -4,6 +4,7 @@ use std::path::Path;
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
+use envpg_core::Registry;
 use envpg_learner::{CheckpointPolicy, LearnerConfig, run_learner};
 use envpg_protocol::Checkpoint;
 use envpg_transport::ipc;
@@ -24,13 +25,15 @@ pub fn progress_line(p: &envpg_ac::trainer::Progress) -> String {
 }
 
 /// The learner process.
-pub fn learner(dir: &Path, resume: bool) -> Result<()> {
+pub fn learner(dir: &Path, resume: bool, registry: &Registry) -> Result<()> {
     let run = RunFile::load(dir)?;
+    let env = run.spec.load(registry)?;
     let cp_path = RunFile::checkpoint_path(dir);
     let resume_from = if resume { Some(Checkpoint::load(&cp_path)?) } else { None };
     let cfg = LearnerConfig {
         run_id: run.run_id.clone(),
         spec: run.spec.clone(),
+        env,
         // Remote hosts' workers all come through one bridge port, but the learner tracks (and
         // queues tasks for) each of them.
         max_workers: run.workers.max(1) + 2 + if run.listen.is_some() { 64 } else { 0 },
@@ -51,12 +54,14 @@ pub fn learner(dir: &Path, resume: bool) -> Result<()> {
 }
 
 /// A worker process.
-pub fn worker(dir: &Path, worker_id: u32, incarnation: u64, protocol: u32) -> Result<WorkerExit> {
+pub fn worker(dir: &Path, worker_id: u32, incarnation: u64, protocol: u32, registry: &Registry) -> Result<WorkerExit> {
     leave_with_parent();
     let run = RunFile::load(dir)?;
+    let env = run.spec.load(registry)?;
     let cfg = WorkerConfig {
         run_id: run.run_id.clone(),
         spec: run.spec.clone(),
+        env,
         worker_id,
         incarnation,
         protocol,

@@ -25,14 +25,15 @@ fn smoke_run_writes_a_result_that_rescoring_confirms() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let r = envpg_core::ResultFile::load(&out).unwrap();
     assert_eq!(r.method, "envpg-ac");
-    assert_eq!((r.kappa, r.seed), (0.9, 3));
+    assert_eq!((r.env.as_str(), r.param("kappa"), r.seed), ("uav", Some(0.9), 3));
     assert_eq!(r.history.as_ref().unwrap().len(), 30);
     let cfg = r.config.as_ref().unwrap();
     assert_eq!(cfg["iterations"], 30);
     // The stored J is the exact J of the stored design and policy.
-    let net = envpg_core::UavNetwork::new(r.instance.clone(), r.kappa, r.eta).unwrap();
-    let snap = envpg_model::Snapshot::build(&net, &r.zeta);
-    let pi = envpg_model::uav::pairs_from_rows(&net, &snap, &r.policy).unwrap();
+    let env = r.load_env(&envpg_envs::registry(), &out).unwrap();
+    let model = env.model().unwrap();
+    let snap = envpg_model::Snapshot::build(model, &r.zeta);
+    let pi = envpg_core::policy::pairs_from_rows(model, &r.policy).unwrap();
     match (envpg_model::evaluate(&snap, &pi, 0.0), r.j) {
         (Ok(v), Some(j)) => assert!((v.j - j).abs() < 1e-9 * j.max(1.0)),
         (Err(_), None) => assert!(r.j_error.is_some()),

@@ -323,7 +323,7 @@ fn a_worker_host_of_another_protocol_version_is_refused() {
     );
     let err = text(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("v1") && err.contains("v99"), "{err}");
+    assert!(err.contains("v2") && err.contains("v99"), "{err}");
     // The run is not corrupted: a host of the right version joins and it ends as in-process.
     let remote = hosts.worker_host(1);
     let lo = wait(learner, Duration::from_secs(120), "learner host");

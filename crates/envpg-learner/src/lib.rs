@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 use envpg_ac::learner::{Batch, LearnerState};
 use envpg_ac::rollout::{Episode, episode_ids};
 use envpg_ac::trainer::{Progress, Recorder, RunSpec, TrainError};
-use envpg_core::ResultFile;
+use envpg_core::{LoadedEnv, ResultFile};
 use envpg_protocol::{Checkpoint, EpisodeHeader, EpisodeId, PROTOCOL_VERSION, StepRecord, hello_kind, run_id_bytes};
 use envpg_transport::{LearnerEnd, LinkSizes, TransportError};
 use iceoryx2::prelude::*;
@@ -48,6 +48,8 @@ pub struct LearnerConfig {
     pub run_id: String,
     /// The run.
     pub spec: RunSpec,
+    /// The run's environment, built from `spec`'s instance.
+    pub env: LoadedEnv,
     /// Most workers alive at once (sizes the services).
     pub max_workers: usize,
     /// A worker silent for this long is presumed dead.
@@ -162,8 +164,15 @@ where
     iceoryx2::port::listener::Listener<S>: SynchronousMultiplexing,
 {
     let spec = &cfg.spec;
-    let (net, zeta0, mut learner) = spec.start()?;
-    let mut rec = Recorder::new(spec, &net, &zeta0);
+    let (zeta0, mut learner) = spec.start_on(&cfg.env)?;
+    if zeta0.len() > envpg_protocol::MAX_ZETA {
+        return Err(LearnerError::Train(TrainError::Zeta0(format!(
+            "ζ has {} coordinates; the distributed protocol carries at most {}",
+            zeta0.len(),
+            envpg_protocol::MAX_ZETA
+        ))));
+    }
+    let mut rec = Recorder::new(spec, &cfg.env, &zeta0);
     if let Some(c) = &cfg.resume {
         let st: LearnerState = postcard::from_bytes(&c.learner).map_err(|e| LearnerError::Checkpoint(e.to_string()))?;
         learner.restore(st).map_err(LearnerError::Checkpoint)?;
@@ -304,7 +313,7 @@ where
         let mut table = learner.policy_table();
         let episodes: Vec<Episode> = done.into_values().collect();
         let st = learner.update(&Batch { k, episodes }).map_err(TrainError::from)?;
-        let p = rec.record(&net, &zeta_k, &mut table, &st);
+        let p = rec.record(&zeta_k, &mut table, &st);
         if let Some(cp) = &cfg.checkpoint
             && (learner.k() % cp.every == 0 || learner.k() as usize == spec.config.iterations)
         {
@@ -318,7 +327,7 @@ where
     }
     end.announce(d, true)?;
     let details = serde_json::json!({ "mode": "workers", "link": stats });
-    Ok((rec.finish(&net, &learner, "envpg-ac", details), stats))
+    Ok((rec.finish(&learner, "envpg-ac", details), stats))
 }
 
 /// Announces the end of the run when dropped.

@@ -4,26 +4,26 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use envpg_core::{Instance, UavNetwork};
 use envpg_model::{Form, GradientKind, Objective, Snapshot, corollary_gradient, solve_horizon, solve_soft};
 
 const ZETA: [f64; 10] = [5.0, 6.0, 3.0, 4.5, 6.5, 3.0, 7.5, 6.5, 8.0, 2.0];
 
 fn bench(c: &mut Criterion) {
     for kappa in [1.0, 0.85] {
-        let net = UavNetwork::new(Instance::bundled(), kappa, 100.0).unwrap();
+        let env = envpg_envs::registry().load("uav271", &[("kappa".into(), kappa)]).unwrap();
+        let net = env.model().unwrap();
         let alpha = 0.2;
-        let snap = Snapshot::build(&net, &ZETA);
+        let snap = Snapshot::build(net, &ZETA);
         let sol = solve_soft(&snap, alpha, None).unwrap();
         let mut g = c.benchmark_group(format!("uav271_kappa{kappa}"));
-        g.bench_function("snapshot_build", |b| b.iter(|| Snapshot::build(&net, black_box(&ZETA))));
+        g.bench_function("snapshot_build", |b| b.iter(|| Snapshot::build(net, black_box(&ZETA))));
         g.bench_function("soft_ssp_solve", |b| b.iter(|| solve_soft(&snap, alpha, Some(&sol.pi)).unwrap()));
         g.bench_function("corollary_gradient_pass", |b| {
-            b.iter(|| corollary_gradient(&net, &ZETA, &snap, &sol).unwrap())
+            b.iter(|| corollary_gradient(net, &ZETA, &snap, &sol).unwrap())
         });
         g.bench_function("horizon_solve", |b| b.iter(|| solve_horizon(&snap, alpha, 6, None).unwrap()));
         for kind in [GradientKind::Exact, GradientKind::Fd] {
-            let mut obj = Objective::new(&net, alpha, Form::Ssp);
+            let mut obj = Objective::new(net, alpha, Form::Ssp);
             obj.gradient = kind;
             g.bench_function(format!("value_and_gradient_{kind:?}").to_lowercase(), |b| {
                 b.iter(|| obj.value_grad(black_box(&ZETA), Some(&sol.pi)).unwrap())

@@ -266,3 +266,21 @@ pub fn mu_dense(snap: &Snapshot) -> Vec<f64> {
     }
     mu
 }
+
+/// The hard-optimal policy of `model` at `zeta` and its exact J.
+pub fn optimal_greedy<M: envpg_core::ModelMdp + ?Sized>(
+    model: &M,
+    zeta: &[f64],
+) -> Result<(Snapshot, Vec<f64>, f64), ModelError> {
+    let snap = Snapshot::build(model, zeta);
+    let sol = crate::soft::solve_soft(&snap, 0.0, None)?;
+    let j = evaluate(&snap, &sol.pi, 0.0)?.j;
+    Ok((snap, sol.pi, j))
+}
+
+/// Exact J of the greedy (most probable action) version of `pi` at `snap`.
+pub fn greedy_j(snap: &Snapshot, pi: &[f64]) -> Result<(Vec<f64>, f64), ModelError> {
+    let g = crate::soft::greedy(snap, pi);
+    let j = evaluate(snap, &g, 0.0)?.j;
+    Ok((g, j))
+}

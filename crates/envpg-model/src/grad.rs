@@ -20,13 +20,20 @@ use crate::soft::SoftSolution;
 /// Accumulates `Σ_{sa} Σ_o [∂p_o (W_sa c_o + γ U_o) + W_sa p_o ∂c_o]` into `grad`.
 ///
 /// `w` is per pair, `u` per outcome of `snap`; states whose coefficients all vanish are skipped.
-pub fn accumulate_local<M: ModelMdp>(mdp: &M, zeta: &[f64], snap: &Snapshot, w: &[f64], u: &[f64], grad: &mut [f64]) {
+pub fn accumulate_local<M: ModelMdp + ?Sized>(
+    mdp: &M,
+    zeta: &[f64],
+    snap: &Snapshot,
+    w: &[f64],
+    u: &[f64],
+    grad: &mut [f64],
+) {
     accumulate_with(mdp, zeta, snap, grad, |sa, o| (w[sa], u[o]));
 }
 
 /// [`accumulate_local`] with `(W_sa, U_o)` supplied per outcome by `coef(sa, o)`, using one
 /// state-sized scratch instead of whole-model coefficient arrays.
-fn accumulate_with<M: ModelMdp>(
+fn accumulate_with<M: ModelMdp + ?Sized>(
     mdp: &M,
     zeta: &[f64],
     snap: &Snapshot,
@@ -61,7 +68,7 @@ fn accumulate_with<M: ModelMdp>(
 
 /// Exact `∇ζ J_H` of the soft-optimal SSP solution (the Gibbs corollary): visit counts from μ
 /// under the Gibbs policy, then the local derivative with V frozen.
-pub fn corollary_gradient<M: ModelMdp>(
+pub fn corollary_gradient<M: ModelMdp + ?Sized>(
     mdp: &M,
     zeta: &[f64],
     snap: &Snapshot,
@@ -72,7 +79,7 @@ pub fn corollary_gradient<M: ModelMdp>(
 }
 
 /// `Σ_s ρ(s) Σ_a π(a|s) ∇ζ[Σ p (c + γV)]` for a policy held fixed.
-fn policy_fixed_gradient<M: ModelMdp>(
+fn policy_fixed_gradient<M: ModelMdp + ?Sized>(
     mdp: &M,
     zeta: &[f64],
     snap: &Snapshot,
@@ -91,7 +98,7 @@ fn policy_fixed_gradient<M: ModelMdp>(
 
 /// Exact `∇ζ J_H` of the finite-horizon solution: stage visits forward over the reachable
 /// states, the hard tail's visits from the stage-H distribution, one local-derivative pass.
-pub fn horizon_gradient<M: ModelMdp>(
+pub fn horizon_gradient<M: ModelMdp + ?Sized>(
     mdp: &M,
     zeta: &[f64],
     snap: &Snapshot,
@@ -168,7 +175,7 @@ pub fn policy_table<P: ParamPolicy>(snap: &Snapshot, policy: &P, zeta: &[f64]) -
 /// exactly from the model:
 ///
 /// `Σ_s ρ(s) Σ_a π(a|s) [∇ζ Q^H_{π,ζ̄}(s,a,ζ) + ∇ζ ln π(a|s,ζ) · Q^H_{π,ζ̄}(s,a,ζ̄)]`.
-pub fn theorem_gradient<M: ModelMdp, P: ParamPolicy>(
+pub fn theorem_gradient<M: ModelMdp + ?Sized, P: ParamPolicy>(
     mdp: &M,
     zeta: &[f64],
     policy: &P,

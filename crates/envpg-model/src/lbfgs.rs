@@ -49,22 +49,63 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 pub fn minimize(
     x0: &[f64],
     cfg: &LbfgsConfig,
+    f: impl FnMut(&[f64]) -> Option<(f64, Vec<f64>)>,
+) -> Option<LbfgsResult> {
+    minimize_in(x0, None, cfg, f)
+}
+
+/// [`minimize`] inside the box `lower ≤ x ≤ upper` (infinite bounds allowed): projected
+/// L-BFGS. Coordinates at a bound whose gradient points outward are *active* — held at the
+/// bound, left out of the quasi-Newton direction and of the convergence test — and every trial
+/// point is projected onto the box, with the Armijo test on the projected step. `x0` is
+/// projected first. Without finite bounds this is exactly the unconstrained algorithm.
+pub fn minimize_in(
+    x0: &[f64],
+    bounds: Option<(&[f64], &[f64])>,
+    cfg: &LbfgsConfig,
     mut f: impl FnMut(&[f64]) -> Option<(f64, Vec<f64>)>,
 ) -> Option<LbfgsResult> {
     let n = x0.len();
-    let (mut fx, mut g) = f(x0)?;
+    let bounds = bounds.filter(|(l, u)| l.iter().chain(u.iter()).any(|b| b.is_finite()));
+    let project = |x: &mut [f64]| -> bool {
+        let mut clamped = false;
+        if let Some((l, u)) = bounds {
+            for i in 0..x.len() {
+                if x[i] < l[i] {
+                    x[i] = l[i];
+                    clamped = true;
+                } else if x[i] > u[i] {
+                    x[i] = u[i];
+                    clamped = true;
+                }
+            }
+        }
+        clamped
+    };
+    // The gradient with the active coordinates zeroed.
+    let projected_gradient = |x: &[f64], g: &[f64]| -> Vec<f64> {
+        match bounds {
+            None => g.to_vec(),
+            Some((l, u)) => (0..n)
+                .map(|i| if (x[i] <= l[i] && g[i] > 0.0) || (x[i] >= u[i] && g[i] < 0.0) { 0.0 } else { g[i] })
+                .collect(),
+        }
+    };
     let mut x = x0.to_vec();
+    project(&mut x);
+    let (mut fx, mut g) = f(&x)?;
     let mut evals = 1;
     let mut hist: std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)> = std::collections::VecDeque::new();
     let mut iterations = 0;
     while iterations < cfg.max_iter {
-        let gnorm = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let pg = projected_gradient(&x, &g);
+        let gnorm = pg.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         if gnorm <= cfg.gtol {
             break;
         }
         iterations += 1;
         // Two-loop recursion.
-        let mut d: Vec<f64> = g.iter().map(|v| -v).collect();
+        let mut d: Vec<f64> = pg.iter().map(|v| -v).collect();
         let mut alphas = Vec::with_capacity(hist.len());
         for (s, y, rho) in hist.iter().rev() {
             let a = rho * dot(s, &d);
@@ -78,7 +119,7 @@ pub fn minimize(
             d.iter_mut().for_each(|v| *v *= gamma);
         } else {
             // First step: move at most max_step/10 along −g.
-            let scale = (0.1 * cfg.max_step / dot(&g, &g).sqrt()).min(1.0);
+            let scale = (0.1 * cfg.max_step / dot(&pg, &pg).sqrt()).min(1.0);
             d.iter_mut().for_each(|v| *v *= scale);
         }
         for ((s, y, rho), a) in hist.iter().zip(alphas.iter().rev()) {
@@ -87,21 +128,35 @@ pub fn minimize(
                 d[i] += (a - b) * s[i];
             }
         }
+        if bounds.is_some() {
+            for i in 0..n {
+                if pg[i] == 0.0 && g[i] != 0.0 {
+                    d[i] = 0.0;
+                }
+            }
+        }
         let mut slope = dot(&g, &d);
         if slope >= 0.0 {
             hist.clear();
-            d = g.iter().map(|v| -v).collect();
+            d = pg.iter().map(|v| -v).collect();
             slope = dot(&g, &d);
         }
         let len = dot(&d, &d).sqrt();
         let mut t = if len > cfg.max_step { cfg.max_step / len } else { 1.0 };
         let mut accepted = None;
         for _ in 0..24 {
-            let xt: Vec<f64> = x.iter().zip(&d).map(|(a, b)| a + t * b).collect();
+            let mut xt: Vec<f64> = x.iter().zip(&d).map(|(a, b)| a + t * b).collect();
+            // A projected step's decrease is measured along the step actually taken.
+            let expected = if project(&mut xt) {
+                let step: Vec<f64> = xt.iter().zip(&x).map(|(a, b)| a - b).collect();
+                dot(&g, &step)
+            } else {
+                t * slope
+            };
             evals += 1;
             if let Some((ft, gt)) = f(&xt)
                 && ft.is_finite()
-                && ft <= fx + 1e-4 * t * slope
+                && ft <= fx + 1e-4 * expected
             {
                 accepted = Some((xt, ft, gt));
                 break;
@@ -143,6 +198,44 @@ mod tests {
         })
         .unwrap();
         assert!((r.x[0] - 1.0).abs() < 1e-6 && (r.x[1] - 1.0).abs() < 1e-6, "{:?}", r.x);
+    }
+
+    #[test]
+    fn stays_in_the_box_and_stops_at_a_bound_minimum() {
+        // Minimum of (x−2)² + (y+1)² over [0, 1] × [0, 1] is the corner (1, 0).
+        let cfg = LbfgsConfig { max_iter: 100, max_step: 10.0, gtol: 1e-10, ftol: 0.0, ..Default::default() };
+        let (lo, hi) = ([0.0, 0.0], [1.0, 1.0]);
+        let mut inside = true;
+        let r = minimize_in(&[0.5, 0.5], Some((&lo, &hi)), &cfg, |x| {
+            inside &= (0.0..=1.0).contains(&x[0]) && (0.0..=1.0).contains(&x[1]);
+            Some(((x[0] - 2.0).powi(2) + (x[1] + 1.0).powi(2), vec![2.0 * (x[0] - 2.0), 2.0 * (x[1] + 1.0)]))
+        })
+        .unwrap();
+        assert!(inside, "every evaluation inside the box");
+        assert_eq!(r.x, vec![1.0, 0.0]);
+        // An interior minimum is found as without bounds.
+        let r = minimize_in(&[0.9, 0.1], Some((&lo, &hi)), &cfg, |x| {
+            Some(((x[0] - 0.3).powi(2) + 3.0 * (x[1] - 0.6).powi(2), vec![2.0 * (x[0] - 0.3), 6.0 * (x[1] - 0.6)]))
+        })
+        .unwrap();
+        assert!((r.x[0] - 0.3).abs() < 1e-8 && (r.x[1] - 0.6).abs() < 1e-8, "{:?}", r.x);
+    }
+
+    #[test]
+    fn infinite_bounds_are_the_unconstrained_algorithm() {
+        let cfg = LbfgsConfig { max_iter: 200, max_step: 10.0, gtol: 1e-9, ..Default::default() };
+        let rosen = |x: &[f64]| {
+            let (a, b) = (x[0], x[1]);
+            Some((
+                (1.0 - a).powi(2) + 100.0 * (b - a * a).powi(2),
+                vec![-2.0 * (1.0 - a) - 400.0 * a * (b - a * a), 200.0 * (b - a * a)],
+            ))
+        };
+        let free = minimize(&[-1.2, 1.0], &cfg, rosen).unwrap();
+        let inf = [f64::NEG_INFINITY, f64::NEG_INFINITY];
+        let sup = [f64::INFINITY, f64::INFINITY];
+        let boxed = minimize_in(&[-1.2, 1.0], Some((&inf, &sup)), &cfg, rosen).unwrap();
+        assert_eq!((free.x, free.iterations, free.evaluations), (boxed.x, boxed.iterations, boxed.evaluations));
     }
 
     #[test]

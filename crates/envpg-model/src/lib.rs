@@ -13,8 +13,11 @@
 //!   (visits × local derivative, the EnvPG theorem evaluated with the model); [`fd_gradient`]:
 //!   central differences.
 //! - [`Objective`]: `J_H(ζ)` with gradient at one temperature; [`oracle::run_oracle`]: the
-//!   annealed, multi-restart co-design oracle.
+//!   annealed, multi-restart co-design oracle, inside the design bounds ([`lbfgs::minimize_in`]).
 //! - [`random`]: random smooth parameterized MDPs and policies for the theorem checks.
+//!
+//! Everything is generic over `M: ModelMdp + ?Sized`: it runs on any environment with a model,
+//! concrete or registered (`dyn ModelMdp`).
 //!
 //! ## Data flow
 //! `ModelMdp` + ζ → [`Snapshot`] → [`solve_soft`]/[`solve_horizon`] (values, Gibbs policy) →
@@ -30,10 +33,9 @@ pub mod oracle;
 pub mod random;
 pub mod snapshot;
 pub mod soft;
-pub mod uav;
 
 pub use error::ModelError;
-pub use evaluate::{PolicyValue, evaluate, mu_dense, visits};
+pub use evaluate::{PolicyValue, evaluate, greedy_j, mu_dense, optimal_greedy, visits};
 pub use grad::{
     ParamPolicy, accumulate_local, corollary_gradient, fd_gradient, horizon_gradient, policy_table, theorem_gradient,
 };

@@ -29,8 +29,7 @@ pub enum GradientKind {
 }
 
 /// `J_H` at temperature `alpha` in form `form`.
-#[derive(Debug)]
-pub struct Objective<'a, M> {
+pub struct Objective<'a, M: ?Sized> {
     /// The model.
     pub mdp: &'a M,
     /// Temperature (0: the hard objective J of the optimal policy).
@@ -45,6 +44,16 @@ pub struct Objective<'a, M> {
     last: std::cell::RefCell<Option<Snapshot>>,
 }
 
+impl<M: ?Sized> std::fmt::Debug for Objective<'_, M> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Objective")
+            .field("alpha", &self.alpha)
+            .field("form", &self.form)
+            .field("gradient", &self.gradient)
+            .finish()
+    }
+}
+
 /// Value and gradient at one ζ, with the policy to warm-start the next solve from.
 #[derive(Debug, Clone)]
 pub struct Evaluated {
@@ -56,7 +65,7 @@ pub struct Evaluated {
     pub warm: Vec<f64>,
 }
 
-impl<'a, M: ModelMdp> Objective<'a, M> {
+impl<'a, M: ModelMdp + ?Sized> Objective<'a, M> {
     /// The objective at `alpha` in `form`, exact gradient.
     pub fn new(mdp: &'a M, alpha: f64, form: Form) -> Self {
         Self { mdp, alpha, form, gradient: GradientKind::Exact, fd_step: 1e-6, last: Default::default() }

@@ -13,27 +13,34 @@
 //!   wherever it exists (horizon form otherwise), as the paper's oracle does; this is the
 //!   oracle a model-free run from the same ζ₀ is compared with.
 //!
-//! At κ = 1 every anneal restart reaches the same, best known design. At κ < 1 the sharp
-//! off-target kernel (η = 100) creates many basins within a few percent of each other and the
-//! annealing path settles in one of them, so the default (`Strategy::Auto`) mixes one anneal
-//! restart with warm restarts from random ζ₀ there and keeps the best.
+//! Every step stays inside the environment's design bounds (projected L-BFGS, projected
+//! perturbations), and the temperatures and horizon default to the environment's
+//! [`envpg_core::OracleHints`].
+//!
+//! On the UAV network at κ = 1 every anneal restart reaches the same, best known design. With
+//! stochastic transitions (κ < 1, η = 100) there are many basins within a few percent of each
+//! other and the annealing path settles in one of them, so the default (`Strategy::Auto`)
+//! anneals every restart when the model is deterministic at the first ζ₀, and otherwise mixes
+//! one anneal restart with warm restarts from random ζ₀ and keeps the best.
 
 use std::time::Instant;
 
-use envpg_core::{ParamMdp, Purpose, Streams, UavNetwork};
+use envpg_core::policy::policy_rows;
+use envpg_core::{LoadedEnv, ModelMdp, Purpose, ResultFile, Streams};
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
 use crate::error::ModelError;
-use crate::lbfgs::{LbfgsConfig, minimize};
+use crate::evaluate::optimal_greedy;
+use crate::lbfgs::{LbfgsConfig, minimize_in};
 use crate::objective::{Form, GradientKind, Objective};
-use crate::uav::{optimal_greedy, random_zeta};
+use crate::snapshot::Snapshot;
 
 /// Which kinds of restart an oracle run uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Strategy {
-    /// Anneal restarts at κ = 1, mixed otherwise.
+    /// Anneal restarts when the model is deterministic (at the first ζ₀), mixed otherwise.
     Auto,
     /// Every restart anneals from hot.
     Anneal,
@@ -53,7 +60,7 @@ pub enum RestartKind {
     Warm,
 }
 
-/// Oracle settings. [`OracleConfig::for_network`] gives the defaults.
+/// Oracle settings. [`OracleConfig::for_env`] gives the defaults.
 #[derive(Debug, Clone, Serialize)]
 pub struct OracleConfig {
     /// Number of restarts (the best is kept).
@@ -92,22 +99,22 @@ pub struct OracleConfig {
 }
 
 impl OracleConfig {
-    /// Defaults scaled to the network: a hot start at 10× the squared extent of the instance,
-    /// warm starts at 0.5, cooling ×0.8 per level down to 1e-3, SSP below 1% of the squared
-    /// extent.
-    pub fn for_network(net: &UavNetwork) -> Self {
-        let scale = net.instance().cost_scale();
-        let m = net.n_uav();
+    /// Defaults scaled to the environment ([`ModelMdp::oracle_hints`]): a hot start at 10× its
+    /// cost scale (for the UAV network, the squared extent of the instance), warm starts and
+    /// the last temperature as hinted, cooling ×0.8 per level, SSP below 1% of the cost scale.
+    pub fn for_env<M: ModelMdp + ?Sized>(model: &M) -> Self {
+        let hints = model.oracle_hints();
+        let scale = hints.cost_scale;
         Self {
             restarts: 16,
             seed: 1,
             strategy: Strategy::Auto,
             alpha0: 10.0 * scale,
-            warm_alpha0: 0.5,
-            alpha_min: 1e-3,
+            warm_alpha0: hints.warm_alpha0,
+            alpha_min: hints.alpha_min,
             cooling: 0.8,
             alpha_switch: 0.01 * scale,
-            horizon: m + 1,
+            horizon: hints.horizon,
             gradient: GradientKind::Exact,
             iters_per_level: 30,
             init: None,
@@ -118,8 +125,8 @@ impl OracleConfig {
         }
     }
 
-    /// Checks ranges.
-    pub fn validate(&self, net: &UavNetwork) -> Result<(), ModelError> {
+    /// Checks ranges (and `init` against the environment's design space).
+    pub fn validate<M: ModelMdp + ?Sized>(&self, model: &M) -> Result<(), ModelError> {
         let bad = |m: String| Err(ModelError::Invalid(m));
         if self.restarts == 0 {
             return bad("restarts must be at least 1".into());
@@ -147,20 +154,21 @@ impl OracleConfig {
             return bad(format!("perturb must be finite and >= 0, got {}", self.perturb));
         }
         if let Some(z) = &self.init {
-            net.check_zeta(z).map_err(|e| ModelError::Invalid(format!("init: {e}")))?;
+            model.zeta_space().check(z).map_err(|e| ModelError::Invalid(format!("init: {e}")))?;
         }
         Ok(())
     }
 
     /// The kind of restart `r`: `init` (if any) is restart 0 and starts warm; with a mixed
-    /// strategy the first other restart anneals.
-    pub fn restart_kind(&self, r: usize, kappa: f64) -> RestartKind {
+    /// strategy the first other restart anneals; `Auto` anneals every restart of a
+    /// `deterministic` model.
+    pub fn restart_kind(&self, r: usize, deterministic: bool) -> RestartKind {
         let first_free = usize::from(self.init.is_some());
         match (self.strategy, r) {
             (_, 0) if self.init.is_some() => RestartKind::Warm,
             (Strategy::Anneal, _) => RestartKind::Anneal,
             (Strategy::Warm, _) => RestartKind::Warm,
-            (Strategy::Auto, _) if kappa == 1.0 => RestartKind::Anneal,
+            (Strategy::Auto, _) if deterministic => RestartKind::Anneal,
             (Strategy::Auto | Strategy::Mixed, r) if r == first_free => RestartKind::Anneal,
             (Strategy::Auto | Strategy::Mixed, _) => RestartKind::Warm,
         }
@@ -244,17 +252,23 @@ pub struct OracleOutcome {
     pub seconds: f64,
 }
 
-/// Runs the oracle on `net`.
-pub fn run_oracle(net: &UavNetwork, cfg: &OracleConfig) -> Result<OracleOutcome, ModelError> {
-    cfg.validate(net)?;
+/// Whether every transition of `model` at `zeta` is certain.
+pub fn deterministic_at<M: ModelMdp + ?Sized>(model: &M, zeta: &[f64]) -> bool {
+    Snapshot::build(model, zeta).prob.iter().all(|&p| p == 0.0 || p == 1.0)
+}
+
+/// Runs the oracle on `model`.
+pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result<OracleOutcome, ModelError> {
+    cfg.validate(model)?;
     let start = Instant::now();
     let streams = Streams::new(cfg.seed);
     let zeta0s: Vec<Vec<f64>> = (0..cfg.restarts)
         .map(|r| match (&cfg.init, r) {
             (Some(z), 0) => z.clone(),
-            _ => random_zeta(net, &mut streams.stream(Purpose::Zeta0, r as u64, 0)),
+            _ => model.random_design(&mut streams.stream(Purpose::Zeta0, r as u64, 0)),
         })
         .collect();
+    let deterministic = deterministic_at(model, &zeta0s[0]);
     let threads = cfg.threads.clamp(1, cfg.restarts);
     let mut results: Vec<Option<Result<Restart, ModelError>>> = vec![None; cfg.restarts];
     std::thread::scope(|scope| {
@@ -265,7 +279,7 @@ pub fn run_oracle(net: &UavNetwork, cfg: &OracleConfig) -> Result<OracleOutcome,
             scope.spawn(move || {
                 for (i, slot) in chunk.iter_mut().enumerate() {
                     let r = c * per + i;
-                    *slot = Some(anneal(net, cfg, r, &zeta0s[r], &streams));
+                    *slot = Some(anneal(model, cfg, r, &zeta0s[r], &streams, deterministic));
                 }
             });
         }
@@ -277,7 +291,7 @@ pub fn run_oracle(net: &UavNetwork, cfg: &OracleConfig) -> Result<OracleOutcome,
         .expect("at least one restart");
     let jbest = restarts[best].j;
     let hits = restarts.iter().filter(|r| r.j <= jbest * (1.0 + cfg.basin_tol)).count();
-    let (_, policy, _) = optimal_greedy(net, &restarts[best].zeta)?;
+    let (_, policy, _) = optimal_greedy(model, &restarts[best].zeta)?;
     Ok(OracleOutcome {
         fraction_best: hits as f64 / restarts.len() as f64,
         best,
@@ -287,16 +301,20 @@ pub fn run_oracle(net: &UavNetwork, cfg: &OracleConfig) -> Result<OracleOutcome,
     })
 }
 
-/// Anneals one restart from `zeta0`.
-pub fn anneal(
-    net: &UavNetwork,
+/// Anneals one restart from `zeta0` (of kind [`OracleConfig::restart_kind`] given whether the
+/// model is `deterministic`).
+pub fn anneal<M: ModelMdp + ?Sized>(
+    model: &M,
     cfg: &OracleConfig,
     index: usize,
     zeta0: &[f64],
     streams: &Streams,
+    deterministic: bool,
 ) -> Result<Restart, ModelError> {
     let start = Instant::now();
-    let length = net.instance().cost_scale().sqrt();
+    let space = model.zeta_space();
+    let bounds = Some((space.lower(), space.upper()));
+    let length = cfg_length(model);
     let lb = LbfgsConfig {
         max_iter: cfg.iters_per_level,
         gtol: 1e-9 * length,
@@ -311,7 +329,7 @@ pub fn anneal(
     let mut levels = Vec::new();
     let mut fallbacks = 0;
     let mut j_h = f64::NAN;
-    let kind = cfg.restart_kind(index, net.kappa());
+    let kind = cfg.restart_kind(index, deterministic);
     // Warm restarts use the SSP form wherever it exists; anneal restarts only below the switch.
     let alpha_switch = match kind {
         RestartKind::Anneal => cfg.alpha_switch,
@@ -327,14 +345,15 @@ pub fn anneal(
             for z in zeta.iter_mut() {
                 *z += noise.sample(&mut rng);
             }
+            space.project(&mut zeta);
         }
         let mut form = if alpha > alpha_switch { horizon } else { Form::Ssp };
         // Near the divergence boundary the SSP objective falls towards −∞ and its gradient
         // explodes, luring ζ into a trap; where the soft SSP values exist they agree with the
         // horizon form to rounding at low α. Use SSP only where it exists and agrees.
         if form == Form::Ssp && alpha > 0.0 {
-            let ssp = Objective::new(net, alpha, Form::Ssp).value(&zeta, warm.as_deref());
-            let hor = Objective::new(net, alpha, horizon).value(&zeta, None);
+            let ssp = Objective::new(model, alpha, Form::Ssp).value(&zeta, warm.as_deref());
+            let hor = Objective::new(model, alpha, horizon).value(&zeta, None);
             let agree = match (&ssp, &hor) {
                 (Ok((a, _)), Ok((b, _))) => (a - b).abs() <= 1e-6 * (1.0 + b.abs()),
                 _ => false,
@@ -344,10 +363,10 @@ pub fn anneal(
                 fallbacks += 1;
             }
         }
-        let mut obj = Objective::new(net, alpha, form);
+        let mut obj = Objective::new(model, alpha, form);
         obj.gradient = cfg.gradient;
         let mut last_warm = warm.clone();
-        let res = minimize(&zeta, &lb, |z| match obj.value_grad(z, last_warm.as_deref()) {
+        let res = minimize_in(&zeta, bounds, &lb, |z| match obj.value_grad(z, last_warm.as_deref()) {
             Ok(e) => {
                 last_warm = Some(e.warm);
                 Some((e.value, e.grad))
@@ -373,8 +392,8 @@ pub fn anneal(
             zeta: zeta.clone(),
         });
     }
-    let (_, _, j) = optimal_greedy(net, &zeta)?;
-    debug_assert_eq!(zeta.len(), net.zeta_dim());
+    let (_, _, j) = optimal_greedy(model, &zeta)?;
+    debug_assert_eq!(zeta.len(), model.zeta_dim());
     Ok(Restart {
         index,
         kind,
@@ -388,13 +407,19 @@ pub fn anneal(
     })
 }
 
+/// The length scale of the oracle's steps: the square root of the environment's cost scale.
+fn cfg_length<M: ModelMdp + ?Sized>(model: &M) -> f64 {
+    model.oracle_hints().cost_scale.sqrt()
+}
+
 impl OracleOutcome {
-    /// The `envpg.result.v1` file of this run: the best restart's design and policy, with
-    /// every restart summarised in `details` and the best restart's levels as history.
-    pub fn to_result(&self, net: &UavNetwork, cfg: &OracleConfig) -> Result<envpg_core::ResultFile, ModelError> {
+    /// The `envpg.result.v2` file of this run on `env`: the best restart's design and policy,
+    /// with every restart summarised in `details` and the best restart's levels as history.
+    pub fn to_result(&self, env: &LoadedEnv, cfg: &OracleConfig) -> Result<ResultFile, ModelError> {
+        let model = env.model().map_err(|e| ModelError::Invalid(e.to_string()))?;
         let best = &self.restarts[self.best];
-        let snap = crate::Snapshot::build(net, &best.zeta);
-        let policy = crate::uav::policy_rows(net, &snap, &self.policy);
+        let snap = Snapshot::build(model, &best.zeta);
+        let policy = policy_rows(model, &self.policy);
         // Final soft policy at the last positive temperature, for reference.
         let soft = crate::solve_soft(&snap, cfg.alpha_min, None).ok();
         let history = best
@@ -411,12 +436,11 @@ impl OracleOutcome {
                 stats: Some(serde_json::json!({ "J_H": l.j_h, "form": l.form, "iterations": l.iterations, "evaluations": l.evaluations })),
             })
             .collect();
-        Ok(envpg_core::ResultFile {
+        Ok(ResultFile {
             schema: envpg_core::result::SCHEMA.into(),
             method: "oracle".into(),
-            instance: net.instance().clone(),
-            kappa: net.kappa(),
-            eta: net.eta(),
+            env: env.name.into(),
+            instance: env.instance.clone(),
             seed: cfg.seed,
             zeta: best.zeta.clone(),
             zeta0: best.zeta0.clone(),
@@ -425,7 +449,7 @@ impl OracleOutcome {
             j_error: None,
             j_h: Some(best.j_h),
             alpha_final: Some(cfg.alpha_min),
-            policy_soft: soft.map(|s| crate::uav::policy_rows(net, &snap, &s.pi)),
+            policy_soft: soft.map(|s| policy_rows(model, &s.pi)),
             seconds: Some(self.seconds),
             config: Some(serde_json::to_value(cfg).expect("config serializes")),
             details: Some(serde_json::json!({

@@ -4,7 +4,7 @@
 //! `c_ζ = ½ + (g + f·ζ)²`; the policy is a softmax of `b + Wζ + 0.3 sin(Vζ)`.
 //! With `ssp = true` the last state is terminal and reachable from every pair.
 
-use envpg_core::{ModelMdp, Outcomes, ParamMdp};
+use envpg_core::{EnvRng, ModelMdp, Outcomes, ParamMdp, ZetaSpace};
 use rand::{Rng, RngExt, SeedableRng};
 use rand_chacha::ChaCha12Rng;
 
@@ -16,6 +16,7 @@ pub struct RandomMdp {
     n: usize,
     n_actions: usize,
     d: usize,
+    space: ZetaSpace,
     gamma: f64,
     ssp: bool,
     mu: Vec<(usize, f64)>,
@@ -88,7 +89,8 @@ impl RandomMdp {
         let w: Vec<f64> = starts.iter().map(|_| 0.1 + rng.random::<f64>()).collect();
         let tot: f64 = w.iter().sum();
         let mu = starts.iter().zip(&w).map(|(&s, &w)| (s, w / tot)).collect();
-        Self { n, n_actions, d, gamma, ssp, mu, actions, pairs }
+        let space = ZetaSpace::unbounded((0..d).map(|i| format!("z{i}")).collect());
+        Self { n, n_actions, d, space, gamma, ssp, mu, actions, pairs }
     }
 }
 
@@ -99,8 +101,8 @@ impl ParamMdp for RandomMdp {
     fn n_actions(&self) -> usize {
         self.n_actions
     }
-    fn zeta_dim(&self) -> usize {
-        self.d
+    fn zeta_space(&self) -> &ZetaSpace {
+        &self.space
     }
     fn valid_actions(&self, s: usize) -> &[usize] {
         &self.actions[s]
@@ -108,7 +110,7 @@ impl ParamMdp for RandomMdp {
     fn is_terminal(&self, s: usize) -> bool {
         self.ssp && s == self.n - 1
     }
-    fn sample_initial<R: Rng + ?Sized>(&self, rng: &mut R) -> usize {
+    fn sample_initial(&self, rng: &mut EnvRng) -> usize {
         let mut u: f64 = rng.random();
         for &(s, p) in &self.mu {
             if u < p {
@@ -118,7 +120,7 @@ impl ParamMdp for RandomMdp {
         }
         self.mu.last().expect("non-empty").0
     }
-    fn step<R: Rng + ?Sized>(&self, s: usize, a: usize, zeta: &[f64], rng: &mut R) -> (usize, f64) {
+    fn step(&self, s: usize, a: usize, zeta: &[f64], rng: &mut EnvRng) -> (usize, f64) {
         let mut o = Outcomes::default();
         self.outcomes(s, a, zeta, false, &mut o);
         let mut u: f64 = rng.random();
@@ -191,7 +193,7 @@ pub struct RandomPolicy {
 
 impl RandomPolicy {
     /// A random policy for `mdp`.
-    pub fn new<M: ParamMdp>(seed: u64, mdp: &M) -> Self {
+    pub fn new<M: ParamMdp + ?Sized>(seed: u64, mdp: &M) -> Self {
         let mut rng = ChaCha12Rng::seed_from_u64(seed ^ 0x5eed);
         let d = mdp.zeta_dim();
         let params = (0..mdp.n_states())

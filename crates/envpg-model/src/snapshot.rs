@@ -51,13 +51,13 @@ pub struct Scc {
 
 impl Snapshot {
     /// Expands `mdp` at `zeta`.
-    pub fn build<M: ModelMdp>(mdp: &M, zeta: &[f64]) -> Self {
+    pub fn build<M: ModelMdp + ?Sized>(mdp: &M, zeta: &[f64]) -> Self {
         Self::build_like(mdp, zeta, None)
     }
 
     /// Expands `mdp` at `zeta`, reusing the component decomposition of `like` when the
     /// transition structure is unchanged (the usual case between nearby designs).
-    pub fn build_like<M: ModelMdp>(mdp: &M, zeta: &[f64], like: Option<&Snapshot>) -> Self {
+    pub fn build_like<M: ModelMdp + ?Sized>(mdp: &M, zeta: &[f64], like: Option<&Snapshot>) -> Self {
         let n = mdp.n_states();
         let mut snap = Snapshot {
             n_states: n,

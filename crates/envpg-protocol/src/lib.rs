@@ -25,13 +25,14 @@
 use iceoryx2::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// Version of this protocol. Bump on any change to a type below.
-pub const PROTOCOL_VERSION: u32 = 1;
+/// Version of this protocol. Bump on any change to a type below or to the run description
+/// peers exchange (version 2: the run names its environment and carries its instance).
+pub const PROTOCOL_VERSION: u32 = 2;
 
-/// Marks envpg messages in the version-agnostic types.
+/// Marks envpg messages in the version-agnostic types (a fixed tag, not a version).
 pub const MAGIC: u64 = 0x656e_7670_675f_7631; // "envpg_v1"
 
-/// Largest ζ dimension carried in headers and records (32 UAVs).
+/// Largest ζ dimension carried in headers and records (32 points in the plane).
 pub const MAX_ZETA: usize = 64;
 
 /// Bytes of a run id.
@@ -115,7 +116,7 @@ pub struct Hello {
 /// Header of a weights broadcast: everything a worker needs for iteration k besides θ_k.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("envpg.v1.WeightsHeader")]
+#[type_name("envpg.v2.WeightsHeader")]
 pub struct WeightsHeader {
     /// [`PROTOCOL_VERSION`].
     pub protocol: u32,
@@ -150,7 +151,7 @@ impl Default for WeightsHeader {
 /// Identifies one episode of an iteration.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, PartialOrd, Ord, ZeroCopySend)]
 #[repr(C)]
-#[type_name("envpg.v1.EpisodeId")]
+#[type_name("envpg.v2.EpisodeId")]
 pub struct EpisodeId {
     /// 0: on-policy, 1: exploration.
     pub kind: u32,
@@ -161,7 +162,7 @@ pub struct EpisodeId {
 /// Header of a task message: episodes of iteration k assigned to one worker.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("envpg.v1.TaskHeader")]
+#[type_name("envpg.v2.TaskHeader")]
 pub struct TaskHeader {
     /// [`PROTOCOL_VERSION`].
     pub protocol: u32,
@@ -178,7 +179,7 @@ pub struct TaskHeader {
 /// Header of one episode's transitions.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("envpg.v1.EpisodeHeader")]
+#[type_name("envpg.v2.EpisodeHeader")]
 pub struct EpisodeHeader {
     /// [`PROTOCOL_VERSION`].
     pub protocol: u32,
@@ -205,7 +206,7 @@ pub struct EpisodeHeader {
 /// One step of an episode: (s, a, s', c, ζ_pert).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("envpg.v1.StepRecord")]
+#[type_name("envpg.v2.StepRecord")]
 pub struct StepRecord {
     /// s_t.
     pub s: u32,
@@ -269,7 +270,7 @@ impl ServiceNames {
 pub struct Checkpoint {
     /// [`PROTOCOL_VERSION`] of the writer.
     pub protocol: u32,
-    /// The run specification, as JSON (instance, κ, η, seed, settings).
+    /// The run specification, as JSON (canonical instance with its environment, seed, settings).
     pub spec_json: String,
     /// The learner's state, postcard-encoded (parameters, optimiser moments, ζ, α, k,
     /// counters): binary so every float comes back bit for bit.
@@ -356,7 +357,7 @@ mod tests {
         unsafe {
             assert_eq!(RunInfo::type_name(), "envpg.RunInfo");
             assert_eq!(Hello::type_name(), "envpg.Hello");
-            assert_eq!(StepRecord::type_name(), "envpg.v1.StepRecord");
+            assert_eq!(StepRecord::type_name(), "envpg.v2.StepRecord");
         }
     }
 

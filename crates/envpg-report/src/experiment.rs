@@ -1,5 +1,7 @@
-//! Table I as a set of independent jobs: Algorithm 1 and the same-start oracle for every
-//! (κ, seed), and the best-of-restarts oracle for every κ.
+//! Table I as a set of independent jobs, for any environment with a model: Algorithm 1 and the
+//! same-start oracle for every (column, seed), and the best-of-restarts oracle for every column.
+//! A column is the instance with one environment parameter set to one value (`--vary
+//! kappa=1,0.9`), or the instance as it is.
 //!
 //! Jobs run in parallel up to [`TablePlan::jobs`]; each writes its result file atomically, and
 //! a job whose file is already there (and matches the plan) is not run again, so an
@@ -14,9 +16,10 @@ use std::time::Instant;
 use envpg_ac::AcConfig;
 use envpg_ac::trainer::RunSpec;
 use envpg_ac::zeta0::initial_design;
-use envpg_core::{Instance, ResultFile, UavNetwork};
+use envpg_core::{LoadedEnv, Registry, ResultFile};
 use envpg_model::oracle::{OracleConfig, Strategy, run_oracle};
 use serde::{Deserialize, Serialize};
+use serde_json::Value;
 
 use crate::summary::{Method, Row, Summary};
 use crate::{ReportError, figures, stats};
@@ -29,13 +32,14 @@ pub trait Alg1Runner: Sync {
     fn describe(&self) -> String;
 }
 
-/// Algorithm 1 in this process (the serial trainer of `envpg-ac`).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct InProcess;
+/// Algorithm 1 in this process (the serial trainer of `envpg-ac`), on the environments of a
+/// registry.
+#[derive(Debug, Clone)]
+pub struct InProcess(pub Registry);
 
 impl Alg1Runner for InProcess {
     fn run(&self, spec: &RunSpec, out: &Path) -> Result<ResultFile, String> {
-        let r = envpg_ac::trainer::train(spec, |_| true).map_err(|e| e.to_string())?;
+        let r = envpg_ac::trainer::train(spec, &self.0, |_| true).map_err(|e| e.to_string())?;
         r.save(out).map_err(|e| format!("{}: {e}", out.display()))?;
         Ok(r)
     }
@@ -45,15 +49,24 @@ impl Alg1Runner for InProcess {
     }
 }
 
+/// One environment parameter over several values: the table's columns.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Vary {
+    /// The parameter (a key of the instance's `params`).
+    pub key: String,
+    /// Its values, one column each.
+    pub values: Vec<f64>,
+}
+
 /// Everything that defines a table.
 #[derive(Debug, Clone)]
 pub struct TablePlan {
-    /// The instance.
-    pub instance: Instance,
-    /// η.
-    pub eta: f64,
-    /// κ columns.
-    pub kappas: Vec<f64>,
+    /// The environments known.
+    pub registry: Registry,
+    /// The instance (canonical form), with the parameters every column shares.
+    pub instance: Value,
+    /// The columns: one parameter over several values (None: one column, the instance).
+    pub vary: Option<Vary>,
     /// Seeds of Algorithm 1 (and of the same-start oracle).
     pub seeds: Vec<u64>,
     /// Algorithm 1 settings.
@@ -75,39 +88,50 @@ pub struct TablePlan {
 /// The part of a plan its results depend on (`plan.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 struct Recorded {
-    instance: Instance,
-    eta: f64,
+    instance: Value,
+    vary: Option<Vary>,
     config: AcConfig,
     restarts: usize,
     oracle_seed: u64,
 }
 
-/// One run of the table.
+/// One run of the table (columns by index into [`TablePlan::columns`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Job {
-    /// Algorithm 1 at (κ, seed).
+    /// Algorithm 1 at (column, seed).
     Alg1 {
-        /// κ.
-        kappa: f64,
+        /// Column.
+        col: usize,
         /// Seed.
         seed: u64,
     },
     /// The oracle warm-started from Algorithm 1's ζ₀ of `seed`, over the same α range.
     SameStart {
-        /// κ.
-        kappa: f64,
+        /// Column.
+        col: usize,
         /// Seed.
         seed: u64,
     },
-    /// The oracle's best of its restarts at κ.
+    /// The oracle's best of its restarts in a column.
     Best {
-        /// κ.
-        kappa: f64,
+        /// Column.
+        col: usize,
     },
 }
 
+/// One column of a table: its label, file-name tag and environment.
+#[derive(Debug, Clone)]
+pub struct TableColumn {
+    /// `kappa = 0.9`, or the instance's name.
+    pub label: String,
+    /// `kappa0.9`, or `base`: the part of the column's file names.
+    pub tag: String,
+    /// The environment of the column.
+    pub env: LoadedEnv,
+}
+
 impl Job {
-    /// The table column the job fills.
+    /// The table row the job fills.
     pub fn method(&self) -> Method {
         match self {
             Job::Alg1 { .. } => Method::Algorithm1,
@@ -116,29 +140,30 @@ impl Job {
         }
     }
 
-    /// κ of the job.
-    pub fn kappa(&self) -> f64 {
+    /// The column of the job.
+    pub fn col(&self) -> usize {
         match *self {
-            Job::Alg1 { kappa, .. } | Job::SameStart { kappa, .. } | Job::Best { kappa } => kappa,
+            Job::Alg1 { col, .. } | Job::SameStart { col, .. } | Job::Best { col } => col,
         }
     }
 
     /// The result file's name in the table directory.
-    pub fn file(&self) -> String {
+    pub fn file(&self, columns: &[TableColumn]) -> String {
+        let tag = &columns[self.col()].tag;
         match self {
-            Job::Alg1 { kappa, seed } => format!("runs/algorithm1_k{kappa}_s{seed}.json"),
-            Job::SameStart { kappa, seed } => format!("runs/oracle-same-start_k{kappa}_s{seed}.json"),
-            Job::Best { kappa } => format!("runs/oracle-best_k{kappa}.json"),
+            Job::Alg1 { seed, .. } => format!("runs/algorithm1_{tag}_s{seed}.json"),
+            Job::SameStart { seed, .. } => format!("runs/oracle-same-start_{tag}_s{seed}.json"),
+            Job::Best { .. } => format!("runs/oracle-best_{tag}.json"),
         }
     }
-}
 
-impl std::fmt::Display for Job {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+    /// The job in words.
+    pub fn describe(&self, columns: &[TableColumn]) -> String {
+        let label = &columns[self.col()].label;
         match self {
-            Job::Alg1 { kappa, seed } => write!(f, "Algorithm 1, κ = {kappa}, seed {seed}"),
-            Job::SameStart { kappa, seed } => write!(f, "oracle from seed {seed}'s ζ₀, κ = {kappa}"),
-            Job::Best { kappa } => write!(f, "oracle best of restarts, κ = {kappa}"),
+            Job::Alg1 { seed, .. } => format!("Algorithm 1, {label}, seed {seed}"),
+            Job::SameStart { seed, .. } => format!("oracle from seed {seed}'s ζ₀, {label}"),
+            Job::Best { .. } => format!("oracle best of restarts, {label}"),
         }
     }
 }
@@ -146,8 +171,8 @@ impl std::fmt::Display for Job {
 /// What happened to one job, for progress reporting.
 #[derive(Debug, Clone)]
 pub struct JobReport {
-    /// The job.
-    pub job: Job,
+    /// The job, in words.
+    pub job: String,
     /// Jobs finished so far (this one included).
     pub done: usize,
     /// All jobs.
@@ -161,22 +186,53 @@ pub struct JobReport {
 }
 
 impl TablePlan {
-    /// Checks the plan.
-    pub fn validate(&self) -> Result<(), ReportError> {
-        let bad = |m: String| Err(ReportError::Plan(m));
-        if self.kappas.is_empty() || self.seeds.is_empty() {
-            return bad("the table needs at least one κ and one seed".into());
+    /// The columns: the instance with the varied parameter at each value (each built and
+    /// checked by the registry), or the instance itself.
+    pub fn columns(&self) -> Result<Vec<TableColumn>, ReportError> {
+        let bad = |m: String| ReportError::Plan(m);
+        let base = self.registry.from_value(&self.instance, "<table instance>").map_err(|e| bad(e.to_string()))?;
+        let Some(vary) = &self.vary else {
+            return Ok(vec![TableColumn { label: base.title.clone(), tag: "base".into(), env: base }]);
+        };
+        if base.param(&vary.key).is_none() {
+            return Err(bad(format!(
+                "--vary {}: environment `{}` has no parameter {:?} (its parameters: {})",
+                vary.key,
+                base.name,
+                vary.key,
+                base.params().keys().cloned().collect::<Vec<_>>().join(", ")
+            )));
         }
-        for &k in &self.kappas {
-            if !(k.is_finite() && k > 0.0 && k <= 1.0) {
-                return bad(format!("κ must be in (0, 1], got {k}"));
+        vary.values
+            .iter()
+            .map(|&v| {
+                let mut inst = self.instance.clone();
+                inst["params"][vary.key.as_str()] = v.into();
+                let env = self
+                    .registry
+                    .from_value(&inst, "<table instance>")
+                    .map_err(|e| bad(format!("--vary {} = {v}: {e}", vary.key)))?;
+                Ok(TableColumn { label: format!("{} = {v}", vary.key), tag: format!("{}{v}", vary.key), env })
+            })
+            .collect()
+    }
+
+    /// Checks the plan (and builds its columns).
+    pub fn validate(&self) -> Result<Vec<TableColumn>, ReportError> {
+        let bad = |m: String| Err(ReportError::Plan(m));
+        if self.seeds.is_empty() {
+            return bad("the table needs at least one seed".into());
+        }
+        if let Some(v) = &self.vary {
+            if v.values.is_empty() {
+                return bad(format!("--vary {}: no values", v.key));
+            }
+            if has_duplicates(&v.values) {
+                return bad(format!("--vary {}: values must be distinct", v.key));
             }
         }
-        if has_duplicates(&self.kappas) || has_duplicates(&self.seeds) {
-            return bad("κ values and seeds must be distinct".into());
-        }
-        if !(self.eta.is_finite() && self.eta >= 0.0) {
-            return bad(format!("η must be finite and >= 0, got {}", self.eta));
+        if has_duplicates(&self.seeds) {
+            return bad("seeds must be distinct".into());
         }
         if self.restarts == 0 || self.jobs == 0 || self.window == 0 {
             return bad("restarts, jobs and the window must be at least 1".into());
@@ -184,20 +240,29 @@ impl TablePlan {
         if !(self.basin_tol.is_finite() && self.basin_tol >= 0.0) {
             return bad(format!("the basin tolerance must be finite and >= 0, got {}", self.basin_tol));
         }
-        self.config.validate().map_err(|e| ReportError::Plan(e.to_string()))
+        self.config.validate().map_err(|e| ReportError::Plan(e.to_string()))?;
+        let columns = self.columns()?;
+        for c in &columns {
+            c.env.model().map_err(|e| ReportError::Plan(format!("the table's oracle rows: {e}")))?;
+            for &seed in &self.seeds {
+                initial_design(c.env.sampler(), &self.config.zeta0, seed)
+                    .map_err(|e| ReportError::Plan(format!("{}: {e}", c.label)))?;
+            }
+        }
+        Ok(columns)
     }
 
-    /// Every job, longest first (small κ trains longest), so parallel runs finish together.
-    pub fn jobs(&self) -> Vec<Job> {
-        let mut kappas = self.kappas.clone();
-        kappas.sort_by(f64::total_cmp);
+    /// Every job, longest first (the last column usually trains longest), so parallel runs
+    /// finish together.
+    pub fn jobs(&self, columns: &[TableColumn]) -> Vec<Job> {
+        let cols: Vec<usize> = (0..columns.len()).rev().collect();
         let mut jobs = Vec::new();
-        for &kappa in &kappas {
-            jobs.extend(self.seeds.iter().map(|&seed| Job::Alg1 { kappa, seed }));
+        for &col in &cols {
+            jobs.extend(self.seeds.iter().map(|&seed| Job::Alg1 { col, seed }));
         }
-        jobs.extend(kappas.iter().map(|&kappa| Job::Best { kappa }));
-        for &kappa in &kappas {
-            jobs.extend(self.seeds.iter().map(|&seed| Job::SameStart { kappa, seed }));
+        jobs.extend(cols.iter().map(|&col| Job::Best { col }));
+        for &col in &cols {
+            jobs.extend(self.seeds.iter().map(|&seed| Job::SameStart { col, seed }));
         }
         jobs
     }
@@ -205,22 +270,18 @@ impl TablePlan {
     fn recorded(&self) -> Recorded {
         Recorded {
             instance: self.instance.clone(),
-            eta: self.eta,
+            vary: self.vary.clone(),
             config: self.config.clone(),
             restarts: self.restarts,
             oracle_seed: self.oracle_seed,
         }
     }
 
-    /// The Algorithm 1 run spec of (κ, seed).
-    pub fn spec(&self, kappa: f64, seed: u64) -> RunSpec {
-        RunSpec { instance: self.instance.clone(), kappa, eta: self.eta, seed, config: self.config.clone() }
-    }
-
     /// Oracle settings of a job: same start = one warm restart from the seed's ζ₀ over
     /// Algorithm 1's α range; best = the default restarts.
-    fn oracle_config(&self, net: &UavNetwork, job: Job) -> Result<OracleConfig, String> {
-        let mut cfg = OracleConfig::for_network(net);
+    fn oracle_config(&self, env: &LoadedEnv, job: Job) -> Result<OracleConfig, String> {
+        let model = env.model().map_err(|e| e.to_string())?;
+        let mut cfg = OracleConfig::for_env(model);
         if self.jobs > 1 {
             cfg.threads = 1;
         }
@@ -229,7 +290,7 @@ impl TablePlan {
                 cfg.restarts = 1;
                 cfg.seed = seed;
                 cfg.strategy = Strategy::Warm;
-                cfg.init = Some(initial_design(&self.instance, &self.config.zeta0, seed)?);
+                cfg.init = Some(initial_design(env.sampler(), &self.config.zeta0, seed)?);
                 cfg.warm_alpha0 = self.config.alpha0;
                 cfg.alpha_min = self.config.alpha_final;
             }
@@ -239,13 +300,13 @@ impl TablePlan {
             }
             Job::Alg1 { .. } => unreachable!("not an oracle job"),
         }
-        cfg.validate(net).map_err(|e| e.to_string())?;
+        cfg.validate(model).map_err(|e| e.to_string())?;
         Ok(cfg)
     }
 
     /// Whether an existing result file is this job's.
-    fn matches(&self, job: Job, r: &ResultFile) -> bool {
-        let common = r.instance == self.instance && r.kappa == job.kappa() && r.eta == self.eta;
+    fn matches(&self, job: Job, column: &TableColumn, r: &ResultFile) -> bool {
+        let common = r.instance == column.env.instance;
         match job {
             Job::Alg1 { seed, .. } => {
                 common
@@ -258,7 +319,7 @@ impl TablePlan {
                 common
                     && r.method == "oracle"
                     && r.seed == seed
-                    && initial_design(&self.instance, &self.config.zeta0, seed).is_ok_and(|z| z == r.zeta0)
+                    && initial_design(column.env.sampler(), &self.config.zeta0, seed).is_ok_and(|z| z == r.zeta0)
             }
             Job::Best { .. } => common && r.method == "oracle" && r.seed == self.oracle_seed,
         }
@@ -269,14 +330,20 @@ fn has_duplicates<T: PartialEq>(xs: &[T]) -> bool {
     xs.iter().enumerate().any(|(i, x)| xs[..i].contains(x))
 }
 
-fn run_job(plan: &TablePlan, job: Job, runner: &dyn Alg1Runner, path: &Path) -> Result<ResultFile, String> {
+fn run_job(
+    plan: &TablePlan,
+    job: Job,
+    column: &TableColumn,
+    runner: &dyn Alg1Runner,
+    path: &Path,
+) -> Result<ResultFile, String> {
     match job {
-        Job::Alg1 { kappa, seed } => runner.run(&plan.spec(kappa, seed), path),
-        Job::SameStart { kappa, .. } | Job::Best { kappa } => {
-            let net = UavNetwork::new(plan.instance.clone(), kappa, plan.eta).map_err(|e| e.to_string())?;
-            let cfg = plan.oracle_config(&net, job)?;
-            let out = run_oracle(&net, &cfg).map_err(|e| e.to_string())?;
-            let mut r = out.to_result(&net, &cfg).map_err(|e| e.to_string())?;
+        Job::Alg1 { seed, .. } => runner.run(&RunSpec::new(&column.env, seed, plan.config.clone()), path),
+        Job::SameStart { .. } | Job::Best { .. } => {
+            let cfg = plan.oracle_config(&column.env, job)?;
+            let model = column.env.model().map_err(|e| e.to_string())?;
+            let out = run_oracle(model, &cfg).map_err(|e| e.to_string())?;
+            let mut r = out.to_result(&column.env, &cfg).map_err(|e| e.to_string())?;
             if let Some(d) = r.details.as_mut().and_then(|d| d.as_object_mut()) {
                 d.insert("table_role".into(), job.method().key().into());
             }
@@ -295,28 +362,30 @@ pub fn run_table(
     runner: &dyn Alg1Runner,
     on_job: &(dyn Fn(&JobReport) + Sync),
 ) -> Result<Summary, ReportError> {
-    plan.validate()?;
+    let columns = plan.validate()?;
     let started = Instant::now();
     std::fs::create_dir_all(dir.join("runs")).map_err(|e| ReportError::io(dir, e))?;
     check_plan_file(plan, dir)?;
-    let jobs = plan.jobs();
+    let jobs = plan.jobs(&columns);
     let total = jobs.len();
     let results: Mutex<Vec<Option<Result<ResultFile, String>>>> = Mutex::new(vec![None; total]);
     let done = AtomicUsize::new(0);
     let mut pending = Vec::new();
     for (i, &job) in jobs.iter().enumerate() {
-        let path = dir.join(job.file());
+        let path = dir.join(job.file(&columns));
         let existing = path.is_file().then(|| ResultFile::load(&path)).transpose()?;
         match existing {
-            Some(r) if plan.matches(job, &r) => {
+            Some(r) if plan.matches(job, &columns[job.col()], &r) => {
                 let n = done.fetch_add(1, Ordering::SeqCst) + 1;
+                let job = job.describe(&columns);
                 on_job(&JobReport { job, done: n, total, outcome: Ok(r.j), skipped: true, seconds: 0.0 });
                 results.lock().unwrap()[i] = Some(Ok(r));
             }
             Some(_) => {
                 return Err(ReportError::Plan(format!(
-                    "{} is not the run this table needs ({job}); remove it or use another output directory",
-                    path.display()
+                    "{} is not the run this table needs ({}); remove it or use another output directory",
+                    path.display(),
+                    job.describe(&columns)
                 )));
             }
             None => pending.push(i),
@@ -329,10 +398,11 @@ pub fn run_table(
                 while let Some(&i) = pending.get(next.fetch_add(1, Ordering::SeqCst)) {
                     let job = jobs[i];
                     let t = Instant::now();
-                    let r = run_job(plan, job, runner, &dir.join(job.file()));
+                    let r = run_job(plan, job, &columns[job.col()], runner, &dir.join(job.file(&columns)));
                     let n = done.fetch_add(1, Ordering::SeqCst) + 1;
                     let outcome = r.as_ref().map(|r| r.j).map_err(Clone::clone);
                     let seconds = t.elapsed().as_secs_f64();
+                    let job = job.describe(&columns);
                     on_job(&JobReport { job, done: n, total, outcome, skipped: false, seconds });
                     results.lock().unwrap()[i] = Some(r);
                 }
@@ -346,23 +416,23 @@ pub fn run_table(
     for (job, r) in jobs.iter().zip(results) {
         match r.expect("every job ran") {
             Ok(r) => {
-                rows.push(Row::from_result(job.method(), &r, &job.file()));
+                rows.push(Row::from_result(job.method(), job.col(), &r, &job.file(&columns)));
                 files.push((*job, r));
             }
-            Err(e) => failures.push(format!("{job}: {e}")),
+            Err(e) => failures.push(format!("{}: {e}", job.describe(&columns))),
         }
     }
     let summary = Summary {
         rows,
-        kappas: plan.kappas.clone(),
+        columns: columns.iter().map(|c| c.label.clone()).collect(),
         seeds: plan.seeds.clone(),
         restarts: plan.restarts,
         basin_tol: plan.basin_tol,
-        preamble: preamble(plan, runner, &files, started.elapsed().as_secs_f64()),
+        preamble: preamble(plan, &columns, runner, &files, started.elapsed().as_secs_f64()),
     };
     write(dir.join("table.md"), summary.markdown())?;
     write(dir.join("table.csv"), summary.csv())?;
-    table_figures(plan, &files, dir)?;
+    table_figures(plan, &columns, &files, dir)?;
     if let Some(first) = failures.first() {
         return Err(ReportError::Runs { failed: failures.len(), total, first: first.clone() });
     }
@@ -383,7 +453,7 @@ fn check_plan_file(plan: &TablePlan, dir: &Path) -> Result<(), ReportError> {
         if old != rec {
             let what = [
                 (old.instance != rec.instance, "instance"),
-                (old.eta != rec.eta, "η"),
+                (old.vary != rec.vary, "columns"),
                 (old.config != rec.config, "Algorithm 1 settings"),
                 (old.restarts != rec.restarts || old.oracle_seed != rec.oracle_seed, "oracle settings"),
             ]
@@ -402,17 +472,28 @@ fn check_plan_file(plan: &TablePlan, dir: &Path) -> Result<(), ReportError> {
     write(path, text)
 }
 
-fn preamble(plan: &TablePlan, runner: &dyn Alg1Runner, files: &[(Job, ResultFile)], wall: f64) -> Vec<String> {
+fn preamble(
+    plan: &TablePlan,
+    columns: &[TableColumn],
+    runner: &dyn Alg1Runner,
+    files: &[(Job, ResultFile)],
+    wall: f64,
+) -> Vec<String> {
     let c = &plan.config;
     let compute: f64 = files.iter().filter_map(|(_, r)| r.seconds).sum();
     let seeds = plan.seeds.iter().map(u64::to_string).collect::<Vec<_>>().join(", ");
+    let env = &columns[0].env;
+    let s = env.sampler();
     let mut lines = vec![
         format!(
-            "Instance `{}` ({} users, {} UAVs), η = {}, seeds {seeds}.",
-            plan.instance.name,
-            plan.instance.n_users(),
-            plan.instance.n_uav,
-            plan.eta
+            "Instance `{}` (environment `{}`: {} states, {} actions, ζ ∈ ℝ^{}), {}{}, seeds {seeds}.",
+            env.title,
+            env.name,
+            s.n_states(),
+            s.n_actions(),
+            s.zeta_dim(),
+            env.params_text(),
+            plan.vary.as_ref().map_or(String::new(), |v| format!(" except {} per column", v.key)),
         ),
         format!(
             "Algorithm 1: {} iterations × {} episodes (+{} exploration), σ = {}, α {} → {}, estimator {:?}{}; {}.",
@@ -429,11 +510,11 @@ fn preamble(plan: &TablePlan, runner: &dyn Alg1Runner, files: &[(Job, ResultFile
             c.zeta_estimator,
             if c.polish_iterations > 0 {
                 format!(
-                    ", then ζ polish: {} iterations × {} episodes, {} routing rounds, best of {} starts \
+                    ", then ζ polish: {} iterations × {} episodes, {} policy rounds, best of {} starts \
                      (spread {}, {} screening iterations each)",
                     c.polish_iterations,
                     c.polish_episodes,
-                    c.polish_routing,
+                    c.polish_policy_rounds,
                     c.polish_candidates,
                     c.polish_spread,
                     c.polish_screen
@@ -456,33 +537,46 @@ fn preamble(plan: &TablePlan, runner: &dyn Alg1Runner, files: &[(Job, ResultFile
     lines
 }
 
-/// The table's figures: placements (Algorithm 1's median seed above the best oracle, one
-/// column per κ), gradient norm and learning curves of every seed, and the median seeds' ζ
+/// The table's figures: designs (Algorithm 1's median seed above the best oracle, one column per
+/// table column), gradient norm and learning curves of every seed, and the median seeds' ζ
 /// trajectories.
-fn table_figures(plan: &TablePlan, files: &[(Job, ResultFile)], dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
-    let mut kappas = plan.kappas.clone();
-    kappas.sort_by(|a, b| b.total_cmp(a));
-    let alg1: Vec<&ResultFile> =
-        files.iter().filter(|(j, r)| matches!(j, Job::Alg1 { .. }) && r.j.is_some()).map(|(_, r)| r).collect();
-    let best: Vec<(f64, &ResultFile)> =
-        files.iter().filter(|(j, _)| matches!(j, Job::Best { .. })).map(|(j, r)| (j.kappa(), r)).collect();
-    let median: Vec<Option<&ResultFile>> = kappas
-        .iter()
-        .map(|&k| {
-            let at: Vec<&ResultFile> = alg1.iter().copied().filter(|r| r.kappa == k).collect();
+fn table_figures(
+    plan: &TablePlan,
+    columns: &[TableColumn],
+    files: &[(Job, ResultFile)],
+    dir: &Path,
+) -> Result<Vec<PathBuf>, ReportError> {
+    let alg1_at = |col: usize| -> Vec<&ResultFile> {
+        files
+            .iter()
+            .filter(|(j, r)| matches!(j, Job::Alg1 { .. }) && j.col() == col && r.j.is_some())
+            .map(|(_, r)| r)
+            .collect()
+    };
+    let best_at =
+        |col: usize| files.iter().find(|(j, _)| matches!(j, Job::Best { .. }) && j.col() == col).map(|(_, r)| r);
+    let median: Vec<Option<&ResultFile>> = (0..columns.len())
+        .map(|col| {
+            let at = alg1_at(col);
             let js: Vec<f64> = at.iter().map(|r| r.j.unwrap_or(f64::INFINITY)).collect();
             stats::median_index(&js).map(|i| at[i])
         })
         .collect();
-    let titles_alg1: Vec<String> =
-        median.iter().map(|r| r.map(|r| format!("{} (median seed)", figures::title(r))).unwrap_or_default()).collect();
-    let titles_best: Vec<String> = kappas
+    let titles_alg1: Vec<String> = median
         .iter()
-        .map(|k| {
-            best.iter()
-                .find(|(bk, _)| bk == k)
-                .map(|(_, r)| {
-                    format!("Oracle · κ = {k} · best of {} · J = {:.3}", plan.restarts, r.j.unwrap_or(f64::NAN))
+        .zip(columns)
+        .map(|(r, c)| r.map(|r| format!("{} · {} (median seed)", figures::title(r), c.label)).unwrap_or_default())
+        .collect();
+    let titles_best: Vec<String> = (0..columns.len())
+        .map(|col| {
+            best_at(col)
+                .map(|r| {
+                    format!(
+                        "Oracle · {} · best of {} · J = {:.4}",
+                        columns[col].label,
+                        plan.restarts,
+                        r.j.unwrap_or(f64::NAN)
+                    )
                 })
                 .unwrap_or_default()
         })
@@ -491,20 +585,24 @@ fn table_figures(plan: &TablePlan, files: &[(Job, ResultFile)], dir: &Path) -> R
     for (r, t) in median.iter().zip(&titles_alg1) {
         cells.push(r.map(|r| figures::Panel { result: r, title: t }));
     }
-    for (k, t) in kappas.iter().zip(&titles_best) {
-        cells.push(best.iter().find(|(bk, _)| bk == k).map(|(_, r)| figures::Panel { result: r, title: t }));
+    for (col, t) in titles_best.iter().enumerate() {
+        cells.push(best_at(col).map(|r| figures::Panel { result: r, title: t }));
     }
-    let mut out = figures::placements(&cells, kappas.len(), dir, "placements")?;
-    if !alg1.is_empty() {
-        out.extend(figures::grad_norm(&alg1, plan.window, dir, "grad_norm")?);
-        out.extend(figures::learning_curves(&alg1, &best, plan.window, dir, "learning_curves")?);
+    let mut out = figures::designs(&plan.registry, &cells, columns.len(), dir, "designs")?;
+    let groups: Vec<(String, Vec<&ResultFile>)> =
+        (0..columns.len()).map(|col| (columns[col].label.clone(), alg1_at(col))).filter(|g| !g.1.is_empty()).collect();
+    if !groups.is_empty() {
+        let oracle: Vec<(String, &ResultFile)> =
+            (0..columns.len()).filter_map(|col| Some((columns[col].label.clone(), best_at(col)?))).collect();
+        out.extend(figures::grad_norm(&groups, plan.window, dir, "grad_norm")?);
+        out.extend(figures::learning_curves(&groups, &oracle, plan.window, dir, "learning_curves")?);
         let panels: Vec<figures::Panel> = median
             .iter()
             .zip(&titles_alg1)
             .filter_map(|(r, t)| Some(figures::Panel { result: (*r)?, title: t }))
             .collect();
-        let designs: Vec<&ResultFile> = best.iter().map(|(_, r)| *r).collect();
-        out.extend(figures::trajectories(&panels, &designs, dir, "trajectories")?);
+        let designs: Vec<&ResultFile> = oracle.iter().map(|(_, r)| *r).collect();
+        out.extend(figures::trajectories(&plan.registry, &panels, &designs, dir, "trajectories")?);
     }
     Ok(out)
 }

@@ -4,9 +4,10 @@
 //! reports they produce.
 //!
 //! ## Main types
-//! - [`TablePlan`] / [`run_table`]: Table I — Algorithm 1 and the oracle (from each seed's own
-//!   ζ₀, and best of its restarts) for every κ and seed, in parallel, resumable; each run's
-//!   `envpg.result.v1` file lands in the output directory.
+//! - [`TablePlan`] / [`run_table`]: Table I for any environment with a model — Algorithm 1
+//!   (alone, and with the ζ polish) and the oracle (from each seed's own ζ₀, and best of its
+//!   restarts) for every column (one environment parameter over several values) and seed, in
+//!   parallel, resumable; each run's `envpg.result.v2` file lands in the output directory.
 //! - [`Summary`]: the table itself, rendered as `table.md` (the paper's layout) and
 //!   `table.csv` (one row per run), computed from result files only.
 //! - [`SweepPlan`] / [`run_sweep`]: one setting over a list of values × seeds: final J and the
@@ -18,8 +19,9 @@
 //! plan → jobs (Algorithm 1 through an [`Alg1Runner`], oracle through `envpg-model`) → result
 //! files → [`Summary`] / [`figures`] → `table.md`, `table.csv`, `*.svg`, `*.png`.
 //!
-//! Every number in a report is read back from the result files, which carry the instance, κ,
-//! η, ζ, ζ₀ and policy, so anyone can recompute it with `envpg evaluate`.
+//! Every number in a report is read back from the result files, which carry the environment,
+//! the full instance with its parameters, ζ, ζ₀ and policy, so anyone can recompute it with
+//! `envpg evaluate`.
 
 mod error;
 pub mod experiment;
@@ -30,6 +32,6 @@ pub mod summary;
 pub mod sweep;
 
 pub use error::ReportError;
-pub use experiment::{Alg1Runner, InProcess, Job, JobReport, TablePlan, run_table};
+pub use experiment::{Alg1Runner, InProcess, Job, JobReport, TableColumn, TablePlan, Vary, run_table};
 pub use summary::{Method, Row, Summary};
 pub use sweep::{SweepPlan, SweepRow, run_sweep};

@@ -14,7 +14,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use envpg_ac::study::{Study, estimator_study};
 use envpg_ac::trainer::RunSpec;
 use envpg_ac::{AcConfig, ZetaEstimator};
-use envpg_core::{Instance, ResultFile};
+use envpg_core::{Registry, ResultFile};
+use serde_json::Value;
 
 use crate::stats::{mean, std};
 use crate::{Alg1Runner, ReportError, figures};
@@ -22,17 +23,16 @@ use crate::{Alg1Runner, ReportError, figures};
 /// A sweep.
 #[derive(Debug, Clone)]
 pub struct SweepPlan {
-    /// The instance.
-    pub instance: Instance,
-    /// κ (unless swept).
-    pub kappa: f64,
-    /// η (unless swept).
-    pub eta: f64,
+    /// The environments known.
+    pub registry: Registry,
+    /// The instance (canonical form), with every parameter but a swept one.
+    pub instance: Value,
     /// Seeds per value.
     pub seeds: Vec<u64>,
     /// Base settings.
     pub config: AcConfig,
-    /// The swept setting: `kappa`, `eta` or any Algorithm 1 setting.
+    /// The swept setting: a parameter of the instance's environment (`kappa`, `deviation`, …)
+    /// or any Algorithm 1 setting.
     pub param: String,
     /// Its values, as text (as in a preset file).
     pub values: Vec<String>,
@@ -93,24 +93,28 @@ fn file_safe(s: &str) -> String {
 }
 
 impl SweepPlan {
+    /// Whether the swept setting is a parameter of the environment (else of Algorithm 1).
+    fn sweeps_env(&self) -> bool {
+        self.instance.get("params").and_then(|p| p.get(&self.param)).is_some()
+    }
+
     /// The run spec of (value, seed), validated.
     pub fn spec(&self, value: &str, seed: u64) -> Result<RunSpec, ReportError> {
         let bad = |m: String| ReportError::Plan(m);
-        let number =
-            |name: &str| value.trim().parse::<f64>().map_err(|e| bad(format!("--values: {name} value {value:?}: {e}")));
-        let (mut kappa, mut eta, mut config) = (self.kappa, self.eta, self.config.clone());
-        match self.param.as_str() {
-            "kappa" => kappa = number("kappa")?,
-            "eta" => eta = number("eta")?,
-            p => config = config.set(p, value).map_err(|e| bad(e.to_string()))?,
+        let mut instance: Value = self.instance.clone();
+        let mut config = self.config.clone();
+        if self.sweeps_env() {
+            let x = value
+                .trim()
+                .parse::<f64>()
+                .map_err(|e| bad(format!("--values: {} value {value:?}: {e}", self.param)))?;
+            instance["params"][self.param.as_str()] = x.into();
+        } else {
+            config = config.set(&self.param, value).map_err(|e| bad(e.to_string()))?;
         }
-        if !(kappa.is_finite() && kappa > 0.0 && kappa <= 1.0) {
-            return Err(bad(format!("κ must be in (0, 1], got {kappa}")));
-        }
-        if !(eta.is_finite() && eta >= 0.0) {
-            return Err(bad(format!("η must be finite and >= 0, got {eta}")));
-        }
-        Ok(RunSpec { instance: self.instance.clone(), kappa, eta, seed, config })
+        let env = self.registry.from_value(&instance, "<sweep instance>").map_err(|e| bad(e.to_string()))?;
+        env.model().map_err(|e| bad(format!("the sweep's estimator study: {e}")))?;
+        Ok(RunSpec::new(&env, seed, config))
     }
 
     /// Checks the plan, including every value.
@@ -145,7 +149,7 @@ fn run_one(plan: &SweepPlan, runner: &dyn Alg1Runner, dir: &Path, value: &str, s
         .is_file()
         .then(|| ResultFile::load(&result_path).ok())
         .flatten()
-        .filter(|r| r.seed == seed && r.kappa == spec.kappa && r.eta == spec.eta && r.instance == spec.instance)
+        .filter(|r| r.seed == seed && r.instance == spec.instance)
         .filter(|r| {
             r.config.as_ref().and_then(|c| serde_json::from_value::<AcConfig>(c.clone()).ok())
                 == Some(spec.config.clone())
@@ -158,7 +162,7 @@ fn run_one(plan: &SweepPlan, runner: &dyn Alg1Runner, dir: &Path, value: &str, s
         Some(s) if s.samples == plan.study_samples => s,
         _ => {
             let train = (plan.study_at * spec.config.iterations as f64).round() as usize;
-            let s = estimator_study(&spec, train, plan.study_samples).map_err(|e| e.to_string())?;
+            let s = estimator_study(&spec, &plan.registry, train, plan.study_samples).map_err(|e| e.to_string())?;
             let text = serde_json::to_string_pretty(&s).expect("study serializes");
             envpg_core::io::write_atomic(&study_path, text.as_bytes())
                 .map_err(|e| format!("{}: {e}", study_path.display()))?;
@@ -287,18 +291,29 @@ pub fn per_value<'a>(values: &'a [String], rows: &'a [SweepRow]) -> Vec<(&'a str
 pub fn markdown(plan: &SweepPlan, rows: &[SweepRow]) -> String {
     let mut s = format!("# Sweep of `{}`\n\n", plan.param);
     let seeds = plan.seeds.iter().map(u64::to_string).collect::<Vec<_>>().join(", ");
+    let name = plan.instance.get("name").and_then(Value::as_str).unwrap_or("?");
+    let env = plan.instance.get("env").and_then(Value::as_str).unwrap_or("?");
+    let params = plan
+        .instance
+        .get("params")
+        .and_then(Value::as_object)
+        .map(|p| {
+            p.iter()
+                .filter(|(k, _)| **k != plan.param)
+                .map(|(k, v)| format!("{k} = {v}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
+        .unwrap_or_default();
     let _ = writeln!(
         s,
-        "Instance `{}`, κ = {}, η = {}, seeds {seeds}. The study freezes each run after {:.0}% of its \
-         iterations and draws {} independent batches; variance is the trace of one estimate's \
-         covariance, bias is ‖mean − exact‖/‖exact‖ against the exact ∇ζJ_H of the frozen policy \
-         (model, reporting only). The critic columns isolate the critic's share: \
+        "Instance `{name}` (environment `{env}`), {params}, seeds {seeds}. The study freezes each run after \
+         {:.0}% of its iterations and draws {} independent batches; variance is the trace of one \
+         estimate's covariance, bias is ‖mean − exact‖/‖exact‖ against the exact ∇ζJ_H of the frozen \
+         policy (model, reporting only). The critic columns isolate the critic's share: \
          Σ ρπ ∇ζQ_φ against Σ ρπ ∇ζQ̄ with the exact visits ρ, as ‖difference‖/‖exact‖ over the \
-         pairs at fixed-position states (users) and at design states (UAVs), and the \
-         visit-weighted RMS error of Q_φ's values.  ",
-        plan.instance.name,
-        plan.kappa,
-        plan.eta,
+         pairs at states away from the design elements (UAV network: the users) and at them (the \
+         UAVs), and the visit-weighted RMS error of Q_φ's values.  ",
         100.0 * plan.study_at,
         plan.study_samples
     );
@@ -308,7 +323,7 @@ pub fn markdown(plan: &SweepPlan, rows: &[SweepRow]) -> String {
     let _ = writeln!(
         s,
         "\n| {} | final J (mean ± std) | estimator | variance | rel. bias | cos(exact) | variance sampled | \
-         variance baseline | critic error, users | critic error, UAVs | critic value RMSE |",
+         variance baseline | critic error, other states | critic error, design states | critic value RMSE |",
         plan.param
     );
     s += "|---|---|---|---|---|---|---|---|---|---|---|\n";
@@ -380,10 +395,11 @@ mod tests {
 
     #[test]
     fn a_run_with_infinite_j_makes_the_mean_infinite_instead_of_being_dropped() {
+        let registry = envpg_envs::registry();
+        let instance = registry.load("uav271", &[]).unwrap().instance;
         let plan = SweepPlan {
-            instance: Instance::bundled(),
-            kappa: 1.0,
-            eta: 100.0,
+            registry,
+            instance,
             seeds: vec![1, 2],
             config: AcConfig::default(),
             param: "sigma".into(),

@@ -21,21 +21,22 @@ use envpg_ac::nets::ActionSets;
 use envpg_ac::rollout::{Episode, EpisodeKind, run_episode};
 use envpg_ac::table::PolicyTable;
 use envpg_ac::trainer::RunSpec;
-use envpg_core::{ParamMdp, Streams, UavNetwork};
+use envpg_core::{EnvRng, LoadedEnv, ParamMdp, Streams, ZetaSpace};
 use envpg_nn::{Mlp, MlpSpec};
 use envpg_protocol::{EpisodeHeader, EpisodeId, MAX_ZETA, StepRecord, hello_kind, run_id_bytes};
 use envpg_transport::{TransportError, WorkerEnd};
 use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
-use rand::Rng;
 
 /// How a worker is started.
 #[derive(Debug, Clone)]
 pub struct WorkerConfig {
     /// Run id (names the services).
     pub run_id: String,
-    /// The run: instance, κ, η, seed, settings.
+    /// The run: instance, seed, settings.
     pub spec: RunSpec,
+    /// The run's environment, built from `spec`'s instance.
+    pub env: LoadedEnv,
     /// Worker slot.
     pub worker_id: u32,
     /// Distinguishes this process from an earlier one in the same slot.
@@ -83,24 +84,27 @@ pub enum WorkerError {
     Wait(String),
 }
 
-/// An environment that burns `cost` of real compute per step before delegating.
-#[derive(Debug, Clone)]
-pub struct CostlyEnv<E> {
-    /// The real environment.
-    pub inner: E,
+/// A sampler that burns `cost` of real compute per step before delegating.
+#[derive(Clone)]
+pub struct CostlyEnv {
+    /// The real sampler.
+    pub inner: std::sync::Arc<dyn ParamMdp>,
     /// Busy time per step.
     pub cost: Duration,
 }
 
-impl<E: ParamMdp> ParamMdp for CostlyEnv<E> {
+impl ParamMdp for CostlyEnv {
     fn n_states(&self) -> usize {
         self.inner.n_states()
     }
     fn n_actions(&self) -> usize {
         self.inner.n_actions()
     }
-    fn zeta_dim(&self) -> usize {
-        self.inner.zeta_dim()
+    fn zeta_space(&self) -> &ZetaSpace {
+        self.inner.zeta_space()
+    }
+    fn gamma(&self) -> f64 {
+        self.inner.gamma()
     }
     fn valid_actions(&self, s: usize) -> &[usize] {
         self.inner.valid_actions(s)
@@ -108,13 +112,13 @@ impl<E: ParamMdp> ParamMdp for CostlyEnv<E> {
     fn is_terminal(&self, s: usize) -> bool {
         self.inner.is_terminal(s)
     }
-    fn sample_initial<R: Rng + ?Sized>(&self, rng: &mut R) -> usize {
+    fn sample_initial(&self, rng: &mut EnvRng) -> usize {
         self.inner.sample_initial(rng)
     }
-    fn sample_exploring_start<R: Rng + ?Sized>(&self, rng: &mut R) -> usize {
+    fn sample_exploring_start(&self, rng: &mut EnvRng) -> usize {
         self.inner.sample_exploring_start(rng)
     }
-    fn step<R: Rng + ?Sized>(&self, s: usize, a: usize, zeta: &[f64], rng: &mut R) -> (usize, f64) {
+    fn step(&self, s: usize, a: usize, zeta: &[f64], rng: &mut EnvRng) -> (usize, f64) {
         if !self.cost.is_zero() {
             let start = Instant::now();
             let mut x = 0u64;
@@ -127,9 +131,6 @@ impl<E: ParamMdp> ParamMdp for CostlyEnv<E> {
             }
         }
         self.inner.step(s, a, zeta, rng)
-    }
-    fn gamma(&self) -> f64 {
-        self.inner.gamma()
     }
 }
 
@@ -149,7 +150,7 @@ pub fn kind_of(id: &EpisodeId) -> EpisodeKind {
 
 /// The rollout state needed to run episodes of one iteration.
 struct Rollout {
-    env: CostlyEnv<UavNetwork>,
+    env: CostlyEnv,
     sets: ActionSets,
     features: Features,
     actor: Mlp<f32>,
@@ -162,16 +163,21 @@ where
     iceoryx2::port::listener::Listener<S>: SynchronousMultiplexing,
 {
     let spec = &cfg.spec;
-    let net =
-        UavNetwork::new(spec.instance.clone(), spec.kappa, spec.eta).map_err(|e| WorkerError::Spec(e.to_string()))?;
+    let net = cfg.env.sampler();
+    if net.zeta_dim() > MAX_ZETA {
+        return Err(WorkerError::Spec(format!(
+            "ζ has {} coordinates; the distributed protocol carries at most {MAX_ZETA}",
+            net.zeta_dim()
+        )));
+    }
     let ac = &spec.config;
-    let features = Features::new(&net, ac.zeta_input, ac.sigma);
+    let features = Features::new(net, cfg.env.env.feature_map(), ac.zeta_input);
     let mlp_spec = MlpSpec { onehot: features.onehot(), dense: features.dense_dim(), hidden: ac.hidden.clone() };
     // The shape only: parameters come from the learner.
     let actor = Mlp::<f32>::new(mlp_spec, &mut Streams::new(0).stream(envpg_core::Purpose::Init, 0, 0), true);
     let mut ro = Rollout {
-        sets: ActionSets::new(&net),
-        env: CostlyEnv { inner: net, cost: Duration::from_micros(cfg.emulator_cost_us) },
+        sets: ActionSets::new(net),
+        env: CostlyEnv { inner: cfg.env.shared_sampler(), cost: Duration::from_micros(cfg.emulator_cost_us) },
         features,
         actor,
         streams: Streams::new(spec.seed),

@@ -1,4 +1,5 @@
-//! Per-iteration curves: the ζ-gradient norm (Figure 1 c) and learning curves.
+//! Per-iteration curves: the ζ-gradient norm (Figure 1 c) and learning curves, one curve or
+//! panel per labelled group of runs (a table column).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -10,19 +11,6 @@ use plotters::prelude::*;
 use super::{Drawn, Figure, colour, draw_legend, grid, save, text};
 use crate::ReportError;
 use crate::stats::{mean, moving_average};
-
-/// κ values of `runs`, descending, with the runs of each.
-fn by_kappa<'a>(runs: &[&'a ResultFile]) -> Vec<(f64, Vec<&'a ResultFile>)> {
-    let mut out: Vec<(f64, Vec<&ResultFile>)> = Vec::new();
-    for r in runs {
-        match out.iter_mut().find(|(k, _)| *k == r.kappa) {
-            Some((_, v)) => v.push(r),
-            None => out.push((r.kappa, vec![r])),
-        }
-    }
-    out.sort_by(|a, b| b.0.total_cmp(&a.0));
-    out
-}
 
 /// Mean over runs of a per-iteration quantity: (k, mean) for every k some run recorded.
 fn mean_series(runs: &[&ResultFile], get: impl Fn(&envpg_core::result::HistoryRow) -> Option<f64>) -> Vec<(f64, f64)> {
@@ -46,16 +34,16 @@ fn x_end(runs: &[&ResultFile]) -> f64 {
     runs.iter().flat_map(|r| r.history.as_deref().unwrap_or(&[]).last()).map(|h| h.k as f64).fold(1.0, f64::max)
 }
 
-/// One κ's curve: κ, raw points, moving average, number of runs averaged.
+/// One group's curve: its label, raw points, moving average, number of runs averaged.
 struct Curve {
-    kappa: f64,
+    label: String,
     raw: Vec<(f64, f64)>,
     ma: Vec<(f64, f64)>,
     runs: usize,
 }
 
 struct GradNorm<'a> {
-    groups: Vec<(f64, Vec<&'a ResultFile>)>,
+    groups: &'a [(String, Vec<&'a ResultFile>)],
     window: usize,
 }
 
@@ -75,7 +63,7 @@ impl Figure for GradNorm<'_> {
             .map(|(k, runs)| {
                 let raw = mean_series(runs, |h| h.grad_norm);
                 let ma = smooth(&raw, self.window);
-                Curve { kappa: *k, raw, ma, runs: runs.len() }
+                Curve { label: k.clone(), raw, ma, runs: runs.len() }
             })
             .collect();
         let ma_max = series.iter().flat_map(|s| s.ma.iter().map(|p| p.1)).fold(0.0, f64::max);
@@ -101,10 +89,10 @@ impl Figure for GradNorm<'_> {
             .axis_desc_style(text(14))
             .light_line_style(WHITE.mix(0.0))
             .draw()?;
-        for (i, Curve { kappa: k, raw, ma, runs: n }) in series.iter().enumerate() {
+        for (i, Curve { label: k, raw, ma, runs: n }) in series.iter().enumerate() {
             let c = colour(i);
             chart.draw_series(LineSeries::new(raw.iter().map(|&(x, y)| (x, y.min(top))), c.mix(0.18)))?;
-            let label = if *n > 1 { format!("κ = {k} (mean of {n} seeds)") } else { format!("κ = {k}") };
+            let label = if *n > 1 { format!("{k} (mean of {n} seeds)") } else { k.clone() };
             chart
                 .draw_series(LineSeries::new(ma.iter().copied(), c.stroke_width(2)))?
                 .label(label)
@@ -115,16 +103,21 @@ impl Figure for GradNorm<'_> {
     }
 }
 
-/// ‖ζ-gradient estimate‖ per iteration, one curve per κ (mean over the runs at that κ), raw
+/// ‖ζ-gradient estimate‖ per iteration, one curve per labelled group of runs (their mean), raw
 /// (faint) and as a trailing moving average over `window` iterations. Writes `stem.svg` and
 /// `stem.png` in `dir`.
-pub fn grad_norm(runs: &[&ResultFile], window: usize, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, ReportError> {
-    save(&GradNorm { groups: by_kappa(runs), window }, dir, stem)
+pub fn grad_norm(
+    groups: &[(String, Vec<&ResultFile>)],
+    window: usize,
+    dir: &Path,
+    stem: &str,
+) -> Result<Vec<PathBuf>, ReportError> {
+    save(&GradNorm { groups, window }, dir, stem)
 }
 
 struct Learning<'a> {
-    groups: Vec<(f64, Vec<&'a ResultFile>)>,
-    oracle: &'a [(f64, &'a ResultFile)],
+    groups: &'a [(String, Vec<&'a ResultFile>)],
+    oracle: &'a [(String, &'a ResultFile)],
     window: usize,
 }
 
@@ -139,9 +132,9 @@ impl Figure for Learning<'_> {
         DB::ErrorType: 'static,
     {
         root.fill(&WHITE)?;
-        for (area, (kappa, runs)) in root.split_evenly(grid(self.groups.len(), 2)).iter().zip(&self.groups) {
-            let oracle_j = self.oracle.iter().find(|(k, _)| k == kappa).and_then(|(_, r)| r.j);
-            learning_panel(area, *kappa, runs, oracle_j, self.window)?;
+        for (area, (label, runs)) in root.split_evenly(grid(self.groups.len(), 2)).iter().zip(self.groups) {
+            let oracle_j = self.oracle.iter().find(|(k, _)| k == label).and_then(|(_, r)| r.j);
+            learning_panel(area, label, runs, oracle_j, self.window)?;
         }
         Ok(())
     }
@@ -149,7 +142,7 @@ impl Figure for Learning<'_> {
 
 fn learning_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
-    kappa: f64,
+    label: &str,
     runs: &[&ResultFile],
     oracle_j: Option<f64>,
     window: usize,
@@ -185,7 +178,7 @@ where
     let (lo, hi) = (lo - pad, hi + pad);
     let clamp = |p: &(f64, f64)| (p.0, p.1.clamp(lo, hi));
     let mut chart = ChartBuilder::on(area)
-        .caption(format!("Learning curves · κ = {kappa}"), text(16))
+        .caption(format!("Learning curves · {label}"), text(16))
         .margin(10)
         .x_label_area_size(36)
         .y_label_area_size(52)
@@ -220,15 +213,16 @@ where
     Ok(())
 }
 
-/// Learning curves, one panel per κ: exact J of (ζ_k, greedy π_k) per run (recorded every few
-/// iterations for reporting), the J_H estimate (mean over runs, moving average), and the
-/// oracle's J from `oracle` (κ, result) as a dashed line. Writes `stem.svg` and `stem.png`.
+/// Learning curves, one panel per labelled group of runs: exact J of (ζ_k, greedy π_k) per run
+/// (recorded every few iterations for reporting), the J_H estimate (mean over runs, moving
+/// average), and the oracle's J from `oracle` (label, result) as a dashed line. Writes
+/// `stem.svg` and `stem.png`.
 pub fn learning_curves(
-    runs: &[&ResultFile],
-    oracle: &[(f64, &ResultFile)],
+    groups: &[(String, Vec<&ResultFile>)],
+    oracle: &[(String, &ResultFile)],
     window: usize,
     dir: &Path,
     stem: &str,
 ) -> Result<Vec<PathBuf>, ReportError> {
-    save(&Learning { groups: by_kappa(runs), oracle, window }, dir, stem)
+    save(&Learning { groups, oracle, window }, dir, stem)
 }

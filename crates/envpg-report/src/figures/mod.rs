@@ -1,12 +1,13 @@
 //! Figures, drawn with plotters to SVG and PNG side by side.
 //!
-//! - [`placements`]: Figure 1 (a/b) — users coloured by the UAV their greedy action picks, the
-//!   UAVs, the destination and each UAV's greedy next hop; one panel per result.
+//! - [`designs`]: Figure 1 (a/b) — each result's design and greedy policy, drawn from its
+//!   environment's sketch (UAVs with users coloured by their relay and the UAVs' next hops;
+//!   cluster centres with points coloured by assignment; facilities with the agents' routes).
 //! - [`grad_norm`]: Figure 1 (c) — ‖ζ-gradient estimate‖ per iteration with a moving average,
-//!   one curve per κ.
+//!   one curve per group (a table column).
 //! - [`learning_curves`]: exact J of (ζ_k, greedy π_k) and the J_H estimate per iteration,
-//!   with the oracle's J as a horizontal line; one panel per κ.
-//! - [`trajectories`]: the UAVs' paths over training on the map.
+//!   with the oracle's J as a horizontal line; one panel per group.
+//! - [`trajectories`]: the design points' paths over training on the map.
 //! - [`sweep`]: final J and the estimator's variance and bias against a swept setting.
 //!
 //! [`plot_results`] is what `envpg plot` calls: every figure that the given results support.
@@ -20,12 +21,12 @@ mod sweep_fig;
 use std::error::Error;
 use std::path::{Path, PathBuf};
 
-use envpg_core::ResultFile;
+use envpg_core::{Registry, ResultFile};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
 pub use curves::{grad_norm, learning_curves};
-pub use maps::{placements, trajectories};
+pub use maps::{designs, sketch_of, trajectories};
 pub use sweep_fig::sweep;
 
 use crate::ReportError;
@@ -81,7 +82,7 @@ pub(crate) fn save(fig: &impl Figure, dir: &Path, stem: &str) -> Result<Vec<Path
     Ok(vec![svg, png])
 }
 
-/// Colours of the UAVs, curves and seeds (Tableau 10: distinct and colour-blind tolerable).
+/// Colours of the design points, curves and seeds (Tableau 10: distinct and colour-blind tolerable).
 pub(crate) const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
@@ -129,10 +130,47 @@ pub fn method_name(r: &ResultFile) -> &'static str {
     }
 }
 
-/// The standard title of a result: method, κ, seed and J.
+/// The standard title of a result: method, seed and J.
 pub fn title(r: &ResultFile) -> String {
-    let j = r.j.map_or("J n/a".to_string(), |j| format!("J = {j:.3}"));
-    format!("{} · κ = {} · seed {} · {j}", method_name(r), r.kappa, r.seed)
+    let j = r.j.map_or("J n/a".to_string(), |j| format!("J = {j:.4}"));
+    format!("{} · seed {} · {j}", method_name(r), r.seed)
+}
+
+/// The label of each result among `results`: the instance parameters that differ between them
+/// (`kappa = 0.9`), or the instance's name where none do.
+pub fn group_labels(results: &[ResultFile]) -> Vec<String> {
+    let params = |r: &ResultFile| -> Vec<(String, f64)> {
+        r.instance
+            .get("params")
+            .and_then(|p| p.as_object())
+            .map(|p| p.iter().filter_map(|(k, v)| Some((k.clone(), v.as_f64()?))).collect())
+            .unwrap_or_default()
+    };
+    let all: Vec<Vec<(String, f64)>> = results.iter().map(params).collect();
+    let varying: Vec<String> = all
+        .iter()
+        .flatten()
+        .map(|(k, _)| k.clone())
+        .filter(|k| {
+            let vals: Vec<Option<f64>> =
+                all.iter().map(|ps| ps.iter().find(|(key, _)| key == k).map(|(_, v)| *v)).collect();
+            vals.iter().any(|v| *v != vals[0])
+        })
+        .fold(Vec::new(), |mut acc, k| {
+            if !acc.contains(&k) {
+                acc.push(k);
+            }
+            acc
+        });
+    results
+        .iter()
+        .zip(&all)
+        .map(|(r, ps)| {
+            let shown: Vec<String> =
+                ps.iter().filter(|(k, _)| varying.contains(k)).map(|(k, v)| format!("{k} = {v}")).collect();
+            if shown.is_empty() { r.instance_name().to_owned() } else { shown.join(", ") }
+        })
+        .collect()
 }
 
 /// Options of [`plot_results`].
@@ -148,26 +186,37 @@ impl Default for PlotOptions {
     }
 }
 
-/// Every figure the results support: placements of all of them (grouped by κ: one column per
-/// κ, Algorithm 1 above the oracle), and for the Algorithm 1 runs the gradient-norm, learning-
-/// curve and trajectory figures, with the best oracle J per κ as reference. Returns the files.
-pub fn plot_results(results: &[ResultFile], dir: &Path, opts: &PlotOptions) -> Result<Vec<PathBuf>, ReportError> {
+/// Every figure the results support: designs of all of them (one column per group of
+/// [`group_labels`], Algorithm 1 runs above oracles), and for the Algorithm 1 runs the
+/// gradient-norm, learning-curve and trajectory figures, with the best oracle J per group as
+/// reference. Environments are rebuilt from the results' own instances by `registry`. Returns
+/// the files.
+pub fn plot_results(
+    results: &[ResultFile],
+    registry: &Registry,
+    dir: &Path,
+    opts: &PlotOptions,
+) -> Result<Vec<PathBuf>, ReportError> {
     if results.is_empty() {
         return Err(ReportError::Plan("nothing to plot: no result files given".into()));
     }
-    let mut kappas: Vec<f64> = results.iter().map(|r| r.kappa).collect();
-    kappas.sort_by(|a, b| b.total_cmp(a));
-    kappas.dedup();
-    let titles: Vec<String> = results.iter().map(title).collect();
-    // Columns are κ (descending); within a column Algorithm 1 runs come first, then oracles.
-    let mut columns: Vec<Vec<Panel>> = kappas
+    let labels = group_labels(results);
+    let mut groups: Vec<String> = Vec::new();
+    for l in &labels {
+        if !groups.contains(l) {
+            groups.push(l.clone());
+        }
+    }
+    let titles: Vec<String> = results.iter().zip(&labels).map(|(r, l)| format!("{} · {l}", title(r))).collect();
+    // Columns are groups; within a column Algorithm 1 runs come first, then oracles.
+    let mut columns: Vec<Vec<Panel>> = groups
         .iter()
-        .map(|&k| {
+        .map(|g| {
             let mut col: Vec<(usize, Panel)> = results
                 .iter()
                 .zip(&titles)
                 .enumerate()
-                .filter(|(_, (r, _))| r.kappa == k)
+                .filter(|(i, _)| &labels[*i] == g)
                 .map(|(i, (r, t))| (i, Panel { result: r, title: t }))
                 .collect();
             col.sort_by_key(|(i, p)| (p.result.method != "envpg-ac", *i));
@@ -181,30 +230,33 @@ pub fn plot_results(results: &[ResultFile], dir: &Path, opts: &PlotOptions) -> R
             cells.push(col.get(r).copied());
         }
     }
-    let mut files = placements(&cells, kappas.len(), dir, "placements")?;
-    let runs: Vec<&ResultFile> = results.iter().filter(|r| r.history.is_some() && r.method == "envpg-ac").collect();
+    let mut files = designs(registry, &cells, groups.len(), dir, "designs")?;
+    let runs: Vec<usize> =
+        (0..results.len()).filter(|&i| results[i].history.is_some() && results[i].method == "envpg-ac").collect();
     if !runs.is_empty() {
-        let oracle = best_oracle_per_kappa(results);
-        files.extend(grad_norm(&runs, opts.window, dir, "grad_norm")?);
-        files.extend(learning_curves(&runs, &oracle, opts.window, dir, "learning_curves")?);
-        let panels: Vec<Panel> = runs
+        let by_group: Vec<(String, Vec<&ResultFile>)> = groups
             .iter()
-            .map(|r| Panel { result: r, title: &titles[results.iter().position(|x| std::ptr::eq(x, *r)).unwrap()] })
+            .map(|g| (g.clone(), runs.iter().filter(|&&i| &labels[i] == g).map(|&i| &results[i]).collect::<Vec<_>>()))
+            .filter(|(_, v)| !v.is_empty())
             .collect();
+        let oracle = best_oracle_per_group(results, &labels);
+        files.extend(grad_norm(&by_group, opts.window, dir, "grad_norm")?);
+        files.extend(learning_curves(&by_group, &oracle, opts.window, dir, "learning_curves")?);
+        let panels: Vec<Panel> = runs.iter().map(|&i| Panel { result: &results[i], title: &titles[i] }).collect();
         let designs: Vec<&ResultFile> = oracle.iter().map(|(_, r)| *r).collect();
-        files.extend(trajectories(&panels, &designs, dir, "trajectories")?);
+        files.extend(trajectories(registry, &panels, &designs, dir, "trajectories")?);
     }
     Ok(files)
 }
 
-/// The oracle result with the lowest J at each κ.
-pub fn best_oracle_per_kappa(results: &[ResultFile]) -> Vec<(f64, &ResultFile)> {
-    let mut best: Vec<(f64, &ResultFile)> = Vec::new();
-    for r in results.iter().filter(|r| r.method == "oracle" && r.j.is_some()) {
-        match best.iter_mut().find(|(k, _)| *k == r.kappa) {
+/// The oracle result with the lowest J in each group.
+pub fn best_oracle_per_group<'a>(results: &'a [ResultFile], labels: &[String]) -> Vec<(String, &'a ResultFile)> {
+    let mut best: Vec<(String, &ResultFile)> = Vec::new();
+    for (r, l) in results.iter().zip(labels).filter(|(r, _)| r.method == "oracle" && r.j.is_some()) {
+        match best.iter_mut().find(|(k, _)| k == l) {
             Some(slot) if slot.1.j > r.j => slot.1 = r,
             Some(_) => {}
-            None => best.push((r.kappa, r)),
+            None => best.push((l.clone(), r)),
         }
     }
     best

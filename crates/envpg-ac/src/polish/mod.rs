@@ -1,44 +1,52 @@
 //! The ζ polish: a short model-free refinement of the design after the last iteration of
-//! Algorithm 1, for the actor's greedy routing (held fixed, or improved by sampled policy
+//! Algorithm 1, for the actor's greedy policy (held fixed, or improved by sampled policy
 //! iteration along the way), from one or several starts.
 //!
 //! Why: Algorithm 1 steps the emulator at ζ_k + N(0, σ²I), so it optimises a design for a
-//! kernel smoothed over σ. Where the kernel switches over much shorter distances (off-target
-//! moves with η = 100 pick the nearest other target, and the nearest one changes within a few
-//! thousandths), the smoothed optimum sits a fraction of σ away from the unsmoothed one.
+//! kernel smoothed over σ. Where the kernel switches over much shorter distances (in the UAV
+//! network, off-target moves with η = 100 pick the nearest other target, and the nearest one
+//! changes within a few thousandths), the smoothed optimum sits a fraction of σ away from the
+//! unsmoothed one.
 //!
-//! How: with the routing (a deterministic policy) held fixed, ζ descends the sampled cost
+//! How: with the policy (deterministic) held fixed, ζ descends the sampled cost
 //! `Ĵ(ζ) = (1/E) Σ_e cost of episode e` by central differences with *common random numbers*:
 //! episode e draws its start and every transition from the same stream at ζ + h·e_i and
 //! ζ − h·e_i, so the difference sees only what ζ changes (costs, and the few draws that switch
 //! target). Each step is normalised, and accepted only if the same episodes cost less at the
 //! new design; the step grows after an acceptance and shrinks after a refusal. Every iteration
-//! draws new episodes (stream `Purpose::Polish`, keyed by iteration and episode).
+//! draws new episodes (stream `Purpose::Polish`, keyed by iteration and episode). Designs stay
+//! inside the design bounds: steps and starts are projected, and a difference at a bound is
+//! one-sided. With γ < 1 an episode's cost is discounted.
 //!
-//! The routing (the frozen policy) can be improved along the way ([`PolishSettings::routing_rounds`]):
-//! a round of sampled policy iteration at the current design estimates V^π of every state
-//! the policy can move to by rollouts, then Q(s, a) = E[c + V^π(s')] of every valid action of
-//! every state from one-step samples (common random numbers across the actions of a state),
-//! and switches each state to its lowest-Q action. The new routing is kept only if the
-//! polish's episodes cost less under it. Everywhere the polish compares sampled costs, a
-//! sample with more than 1 in 1000 episodes at the length cap counts as looping and loses to
-//! any that does not: a loop between two close UAVs runs up little cost before the cap. Without it the polish stops where the old routing
-//! stops being the best one for the moved design; with it, design and routing approach a
-//! joint local optimum, as the model's local optimiser does.
+//! The policy can be improved along the way ([`PolishSettings::policy_rounds`], [`improve`]): a
+//! round of sampled policy iteration at the current design estimates V^π of every state the
+//! policy can move to by rollouts, then Q(s, a) = E[c + γV^π(s')] of every valid action of every
+//! state from one-step samples (common random numbers across the actions of a state), and
+//! switches each state to its lowest-Q action. The new policy is kept only if the polish's
+//! episodes cost less under it. Everywhere the polish compares sampled costs of an SSP, a sample
+//! with more than 1 in 1000 episodes at the length cap counts as looping and loses to any that
+//! does not ([`sampled`]). Without the rounds the polish stops where the old policy stops being
+//! the best one for the moved design; with them, design and policy approach a joint local
+//! optimum, as the model's local optimiser does.
 //!
 //! Several starts can be polished ([`polish_candidates`]): the design Algorithm 1 ends with
-//! and a few designs scattered around it, each with the actor's greedy routing at that design.
+//! and a few designs scattered around it, each with the actor's greedy policy at that design.
 //! Each gets a short screening polish; the one whose sampled cost (on episodes common to all)
-//! is lowest is kept and polished to the end. Design and routing together have local optima a
+//! is lowest is kept and polished to the end. Design and policy together have local optima a
 //! few tenths apart, and a start from a neighbouring one is cheap to try.
 //!
-//! Model-free: the environment is touched only through [`ParamMdp::sample_initial`],
-//! [`ParamMdp::step`], [`ParamMdp::valid_actions`] and [`ParamMdp::is_terminal`]. It does need
-//! an emulator whose randomness the caller supplies (it replays a stream at two designs) and,
-//! for the routing rounds, one that can be stepped from any state (as exploring starts are);
-//! Algorithm 1 itself needs neither.
+//! Model-free: the environment is touched only through its sampler
+//! ([`ParamMdp::sample_initial`], [`ParamMdp::step`], [`ParamMdp::valid_actions`],
+//! [`ParamMdp::is_terminal`]). It does need a sampler whose randomness the caller supplies (it
+//! replays a stream at two designs, as every envpg sampler does) and, for the policy rounds,
+//! one that can be stepped from any state (as exploring starts are); Algorithm 1 itself needs
+//! neither.
 
-use envpg_core::{ParamMdp, Purpose, Streams};
+mod improve;
+mod sampled;
+
+use envpg_core::{ParamMdp, Purpose, Streams, ZetaSpace};
+pub use improve::{PolicyProposal, improve_policy};
 use rand::RngExt;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
@@ -56,11 +64,11 @@ pub struct PolishSettings {
     pub step: f64,
     /// Episode length cap.
     pub episode_cap: usize,
-    /// Rounds of sampled policy iteration on the routing, spread evenly over the iterations
-    /// (the first before iteration 0; 0: the routing stays frozen).
-    pub routing_rounds: usize,
+    /// Rounds of sampled policy iteration on the policy, spread evenly over the iterations
+    /// (the first before iteration 0; 0: the policy stays frozen).
+    pub policy_rounds: usize,
     /// One-step samples per (state, action), and rollouts per state for V^π, of a round.
-    pub routing_samples: usize,
+    pub policy_samples: usize,
     /// Starting designs of [`polish_candidates`] (1: only the given design).
     pub candidates: usize,
     /// Standard deviation of the other starts' offsets from the given design.
@@ -84,15 +92,15 @@ pub struct PolishReport {
     pub j_estimate_after: f64,
     /// Environment steps taken.
     pub transitions: u64,
-    /// Routing rounds run.
-    #[serde(default)]
-    pub routing_rounds: usize,
-    /// Routing rounds whose new routing was kept.
-    #[serde(default)]
-    pub routing_accepted: usize,
+    /// Policy rounds run.
+    #[serde(default, alias = "routing_rounds")]
+    pub policy_rounds: usize,
+    /// Policy rounds whose new policy was kept.
+    #[serde(default, alias = "routing_accepted")]
+    pub policy_accepted: usize,
     /// States whose action changed, summed over the kept rounds.
-    #[serde(default)]
-    pub routing_changes: usize,
+    #[serde(default, alias = "routing_changes")]
+    pub policy_changes: usize,
     /// The screened starting designs (empty with one start).
     #[serde(default)]
     pub candidates: Vec<PolishCandidate>,
@@ -110,51 +118,41 @@ pub struct PolishCandidate {
     pub zeta: Vec<f64>,
     /// Sampled cost after screening, on the selection episodes (the same for every candidate).
     pub j_estimate: f64,
-    /// Selection episodes that hit the length cap; above 1 in 1000 the routing counts as
-    /// looping and ranks after every routing that does not.
+    /// Selection episodes that hit the length cap; above 1 in 1000 (in an SSP) the policy
+    /// counts as looping and ranks after every policy that does not.
     #[serde(default)]
     pub capped: u64,
 }
 
-/// What one routing round proposes.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RoutingProposal {
-    /// The lowest-Q action of every state (the old action where nothing is better).
-    pub action: Vec<usize>,
-    /// States whose action changed.
-    pub changed: usize,
-    /// Environment steps taken.
-    pub transitions: u64,
-}
-
-/// Stream keys of the routing rounds, the candidate selection and the candidates' starts,
-/// above any polish iteration.
-const ROUTING_ONE_STEP: u64 = 1 << 40;
-const ROUTING_ROLLOUT: u64 = 2 << 40;
+/// Stream keys of the candidate selection and the candidates' starts, above any polish
+/// iteration (the policy rounds use `1 << 40` and `2 << 40`).
 const SELECTION: u64 = 3 << 40;
 const STARTS: u64 = 4 << 40;
 
 /// The starting designs of [`polish_candidates`]: `zeta` itself, then `candidates − 1`
-/// designs `zeta + N(0, candidate_spread²I)`. Same inputs, same starts.
-pub fn candidate_starts(zeta: &[f64], s: &PolishSettings, streams: &Streams) -> Vec<Vec<f64>> {
+/// designs `zeta + N(0, candidate_spread²I)`, projected onto `space`. Same inputs, same starts.
+pub fn candidate_starts(zeta: &[f64], s: &PolishSettings, streams: &Streams, space: &ZetaSpace) -> Vec<Vec<f64>> {
     (0..s.candidates.max(1) as u64)
         .map(|c| {
             if c == 0 {
                 return zeta.to_vec();
             }
             let mut rng = streams.stream(Purpose::Polish, STARTS, c);
-            zeta.iter().map(|z| z + s.candidate_spread * rng.sample::<f64, _>(StandardNormal)).collect()
+            let mut z: Vec<f64> =
+                zeta.iter().map(|z| z + s.candidate_spread * rng.sample::<f64, _>(StandardNormal)).collect();
+            space.project(&mut z);
+            z
         })
         .collect()
 }
 
-/// Polishes from several starts `(design, routing)` and keeps the best: each start gets a
-/// screening polish of `screen_iterations` (with a proportional share of the routing rounds,
+/// Polishes from several starts `(design, policy)` and keeps the best: each start gets a
+/// screening polish of `screen_iterations` (with a proportional share of the policy rounds,
 /// at least one, and half the episodes and samples), the screened candidates are ranked by
 /// their sampled cost on `4 · episodes` common episodes, and the lowest is polished for
 /// `iterations` more. With one start this is [`polish`]. Model-free like [`polish`]; same
 /// inputs, same result.
-pub fn polish_candidates<E: ParamMdp + Sync>(
+pub fn polish_candidates<E: ParamMdp + Sync + ?Sized>(
     env: &E,
     starts: &[(Vec<f64>, Vec<usize>)],
     s: &PolishSettings,
@@ -168,11 +166,11 @@ pub fn polish_candidates<E: ParamMdp + Sync>(
     let screen = PolishSettings {
         iterations: s.screen_iterations,
         episodes: s.episodes.div_ceil(2),
-        routing_samples: s.routing_samples.div_ceil(2),
-        routing_rounds: if s.routing_rounds == 0 {
+        policy_samples: s.policy_samples.div_ceil(2),
+        policy_rounds: if s.policy_rounds == 0 {
             0
         } else {
-            (s.routing_rounds * s.screen_iterations).div_ceil(s.iterations.max(1)).max(1)
+            (s.policy_rounds * s.screen_iterations).div_ceil(s.iterations.max(1)).max(1)
         },
         ..*s
     };
@@ -180,7 +178,8 @@ pub fn polish_candidates<E: ParamMdp + Sync>(
     let screened: Vec<(Vec<f64>, Vec<usize>, PolishReport)> =
         starts.iter().map(|(z, a)| polish_run(env, a, z, &screen, streams, 0)).collect();
     let selection = PolishSettings { episodes: 4 * s.episodes, ..*s };
-    let scores = on_two_threads(&screened, |(z, a, _)| sampled_cost(env, a, z, &selection, streams, SELECTION));
+    let scores =
+        on_two_threads(&screened, |(z, a, _)| sampled::sampled_cost(env, a, z, &selection, streams, SELECTION));
     let kept = (0..scores.len())
         .min_by(|&a, &b| {
             let (ka, kb) = (scores[a].key(), scores[b].key());
@@ -194,9 +193,9 @@ pub fn polish_candidates<E: ParamMdp + Sync>(
     for (r, sc) in screened.iter().map(|x| &x.2).zip(&scores) {
         report.transitions += r.transitions + sc.steps;
         report.accepted += r.accepted;
-        report.routing_rounds += r.routing_rounds;
-        report.routing_accepted += r.routing_accepted;
-        report.routing_changes += r.routing_changes;
+        report.policy_rounds += r.policy_rounds;
+        report.policy_accepted += r.policy_accepted;
+        report.policy_changes += r.policy_changes;
     }
     report.iterations += starts.len() * s.screen_iterations;
     report.candidates = starts
@@ -216,7 +215,7 @@ pub fn polish_candidates<E: ParamMdp + Sync>(
 
 /// Runs `f` on every item of `items`, on two threads when there are items enough; the result
 /// does not depend on the thread count (each item is computed whole by one thread).
-fn on_two_threads<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync) -> Vec<U> {
+pub(crate) fn on_two_threads<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync) -> Vec<U> {
     if items.len() < 2 {
         return items.iter().map(&f).collect();
     }
@@ -229,181 +228,10 @@ fn on_two_threads<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync) -> 
     })
 }
 
-/// One round of sampled policy iteration on the routing `action` at design `zeta`: V^π of the
-/// successors by `routing_samples` rollouts each, Q of every valid action of every
-/// non-terminal state from `routing_samples` one-step samples (the same stream for each action
-/// of a state), and the lowest-Q action per state. Same inputs, same proposal.
-pub fn improve_routing<E: ParamMdp + Sync>(
-    env: &E,
-    action: &[usize],
-    zeta: &[f64],
-    s: &PolishSettings,
-    streams: &Streams,
-    round: u64,
-) -> RoutingProposal {
-    let n = env.n_states();
-    let r = s.routing_samples.max(1);
-    let states: Vec<usize> = (0..n).filter(|&st| !env.is_terminal(st)).collect();
-    // One-step samples: per state and valid action, the cost sum and successor counts.
-    let samples = on_two_threads(&states, |&st| {
-        let mut steps = 0u64;
-        let per_action: Vec<(f64, Vec<(usize, u32)>)> = env
-            .valid_actions(st)
-            .iter()
-            .map(|&a| {
-                let mut rng = streams.stream(Purpose::Polish, ROUTING_ONE_STEP + round, st as u64);
-                let mut cost = 0.0;
-                let mut next: Vec<(usize, u32)> = Vec::new();
-                for _ in 0..r {
-                    let (s2, c) = env.step(st, a, zeta, &mut rng);
-                    cost += c;
-                    match next.iter_mut().find(|x| x.0 == s2) {
-                        Some(x) => x.1 += 1,
-                        None => next.push((s2, 1)),
-                    }
-                }
-                steps += r as u64;
-                (cost, next)
-            })
-            .collect();
-        (per_action, steps)
-    });
-    let mut transitions: u64 = samples.iter().map(|x| x.1).sum();
-    // V^π of every non-terminal successor, by rollouts under the current routing.
-    let mut needed = vec![false; n];
-    for (per_action, _) in &samples {
-        for (_, next) in per_action {
-            for &(s2, _) in next {
-                needed[s2] = !env.is_terminal(s2);
-            }
-        }
-    }
-    let succ: Vec<usize> = (0..n).filter(|&st| needed[st]).collect();
-    let values = on_two_threads(&succ, |&st| {
-        let mut rng = streams.stream(Purpose::Polish, ROUTING_ROLLOUT + round, st as u64);
-        let (mut total, mut steps) = (0.0, 0u64);
-        for _ in 0..r {
-            let mut cur = st;
-            for _ in 0..s.episode_cap {
-                let (s2, c) = env.step(cur, action[cur], zeta, &mut rng);
-                total += c;
-                steps += 1;
-                if env.is_terminal(s2) {
-                    break;
-                }
-                cur = s2;
-            }
-        }
-        (total / r as f64, steps)
-    });
-    let mut v = vec![0.0; n];
-    for (&st, &(val, steps)) in succ.iter().zip(&values) {
-        v[st] = val;
-        transitions += steps;
-    }
-    let mut new_action = action.to_vec();
-    let mut changed = 0;
-    for (&st, (per_action, _)) in states.iter().zip(&samples) {
-        let q: Vec<f64> = per_action
-            .iter()
-            .map(|(cost, next)| (cost + next.iter().map(|&(s2, k)| k as f64 * v[s2]).sum::<f64>()) / r as f64)
-            .collect();
-        let acts = env.valid_actions(st);
-        let current = acts.iter().position(|&a| a == action[st]);
-        let best = (0..q.len()).min_by(|&i, &j| q[i].total_cmp(&q[j])).expect("a non-terminal state has actions");
-        if current.is_none_or(|c| q[best] < q[c]) {
-            new_action[st] = acts[best];
-            changed += 1;
-        }
-    }
-    RoutingProposal { action: new_action, changed, transitions }
-}
-
-/// Mean cost of episodes `0..n` of polish iteration `it` at `zeta` under the deterministic
-/// policy `action` (one action per state), and the number of steps taken.
-fn sampled_cost<E: ParamMdp + Sync>(
-    env: &E,
-    action: &[usize],
-    zeta: &[f64],
-    s: &PolishSettings,
-    streams: &Streams,
-    it: u64,
-) -> Sampled {
-    let mut out = Sampled { cost: 0.0, capped: 0, steps: 0, episodes: s.episodes as u64 };
-    for e in 0..s.episodes as u64 {
-        let mut rng = streams.stream(Purpose::Polish, it, e);
-        let mut st = env.sample_initial(&mut rng);
-        let mut done = false;
-        for _ in 0..s.episode_cap {
-            let (s2, c) = env.step(st, action[st], zeta, &mut rng);
-            out.cost += c;
-            out.steps += 1;
-            if env.is_terminal(s2) {
-                done = true;
-                break;
-            }
-            st = s2;
-        }
-        out.capped += u64::from(!done);
-    }
-    out.cost /= s.episodes as f64;
-    out
-}
-
-/// The sampled cost of one (design, routing) on a set of episodes.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Sampled {
-    /// Mean episode cost (capped episodes count with the cost they ran up).
-    cost: f64,
-    /// Episodes that hit the length cap.
-    capped: u64,
-    /// Environment steps taken.
-    steps: u64,
-    /// Episodes sampled.
-    episodes: u64,
-}
-
-/// A sample loops when more than this fraction of its episodes hit the cap. A loop that even
-/// one user of the 271 is routed into caps 1/271 of the episodes; with off-target moves, a
-/// proper routing's rare long episodes cap a few in ten thousand.
-const LOOP_FRACTION: f64 = 1e-3;
-
-impl Sampled {
-    /// Whether the routing loops on these episodes.
-    fn loops(&self) -> bool {
-        self.capped as f64 > LOOP_FRACTION * self.episodes as f64
-    }
-
-    /// Sort key: a routing that loops between two close UAVs runs up little cost before the
-    /// cap and must not look cheap, so looping samples come last (fewer capped episodes
-    /// first among them); the rest are ranked by cost.
-    fn key(&self) -> (bool, u64, f64) {
-        (self.loops(), if self.loops() { self.capped } else { 0 }, self.cost)
-    }
-
-    /// Whether this sample ranks before `other`.
-    fn beats(&self, other: &Sampled) -> bool {
-        self.key().partial_cmp(&other.key()) == Some(std::cmp::Ordering::Less)
-    }
-}
-
-/// Sampled costs at each design, on two threads when there are designs enough; the values do
-/// not depend on the thread count (each is computed whole by one thread).
-fn sampled_costs<E: ParamMdp + Sync>(
-    env: &E,
-    action: &[usize],
-    designs: &[Vec<f64>],
-    s: &PolishSettings,
-    streams: &Streams,
-    it: u64,
-) -> Vec<Sampled> {
-    on_two_threads(designs, |z| sampled_cost(env, action, z, s, streams, it))
-}
-
 /// Polishes `zeta` for the policy `action` (one action per state; terminal states' entries
-/// are unused), improving that routing on the way when `routing_rounds > 0`. Returns the
-/// design and the routing it was polished for. Same inputs, same result.
-pub fn polish<E: ParamMdp + Sync>(
+/// are unused), improving that policy on the way when `policy_rounds > 0`. Returns the
+/// design and the policy it was polished for. Same inputs, same result.
+pub fn polish<E: ParamMdp + Sync + ?Sized>(
     env: &E,
     action: &[usize],
     zeta: &[f64],
@@ -413,9 +241,9 @@ pub fn polish<E: ParamMdp + Sync>(
     polish_run(env, action, zeta, s, streams, 0)
 }
 
-/// [`polish`] with its iterations (and routing rounds) drawing the episodes of polish
+/// [`polish`] with its iterations (and policy rounds) drawing the episodes of polish
 /// iterations `first..`, so that screening and the final polish use different episodes.
-fn polish_run<E: ParamMdp + Sync>(
+fn polish_run<E: ParamMdp + Sync + ?Sized>(
     env: &E,
     action: &[usize],
     zeta: &[f64],
@@ -426,7 +254,8 @@ fn polish_run<E: ParamMdp + Sync>(
     let d = zeta.len();
     let mut z = zeta.to_vec();
     let mut action = action.to_vec();
-    let rounds = s.routing_rounds.min(s.iterations);
+    let space = env.zeta_space();
+    let rounds = s.policy_rounds.min(s.iterations);
     let round_at = |it: u64| (0..rounds as u64).find(|r| r * s.iterations as u64 / rounds as u64 == it);
     let mut report = PolishReport {
         zeta_before: zeta.to_vec(),
@@ -435,9 +264,9 @@ fn polish_run<E: ParamMdp + Sync>(
         j_estimate_before: f64::NAN,
         j_estimate_after: f64::NAN,
         transitions: 0,
-        routing_rounds: 0,
-        routing_accepted: 0,
-        routing_changes: 0,
+        policy_rounds: 0,
+        policy_accepted: 0,
+        policy_changes: 0,
         candidates: Vec::new(),
         kept: 0,
     };
@@ -445,37 +274,43 @@ fn polish_run<E: ParamMdp + Sync>(
     for local in 0..s.iterations as u64 {
         let it = first + local;
         if let Some(round) = round_at(local) {
-            let p = improve_routing(env, &action, &z, s, streams, first + round);
+            let p = improve_policy(env, &action, &z, s, streams, first + round);
             report.transitions += p.transitions;
-            report.routing_rounds += 1;
+            report.policy_rounds += 1;
             if p.changed > 0 {
                 // Kept only if this iteration's episodes cost less under it.
-                let j = sampled_costs_of(env, &[&action, &p.action], &z, s, streams, it);
+                let j = sampled::sampled_costs_of(env, &[&action, &p.action], &z, s, streams, it);
                 report.transitions += j.iter().map(|x| x.steps).sum::<u64>();
                 if j[1].beats(&j[0]) {
                     action = p.action;
-                    report.routing_accepted += 1;
-                    report.routing_changes += p.changed;
+                    report.policy_accepted += 1;
+                    report.policy_changes += p.changed;
                 }
             }
         }
         let action = &action[..];
-        // The design and its 2d neighbours, all on this iteration's episodes.
+        // The design and its 2d neighbours (inside the bounds), all on this iteration's episodes.
         let mut designs = vec![z.clone()];
+        let mut width = Vec::with_capacity(d);
         for i in 0..d {
-            for sign in [1.0, -1.0] {
+            let (lo, hi) = (space.lower()[i], space.upper()[i]);
+            let (up, down) = ((z[i] + s.h).min(hi), (z[i] - s.h).max(lo));
+            width.push(if up == z[i] + s.h && down == z[i] - s.h { 2.0 * s.h } else { up - down });
+            for y_i in [up, down] {
                 let mut y = z.clone();
-                y[i] += sign * s.h;
+                y[i] = y_i;
                 designs.push(y);
             }
         }
-        let j = sampled_costs(env, action, &designs, s, streams, it);
+        let j = sampled::sampled_costs(env, action, &designs, s, streams, it);
         report.transitions += j.iter().map(|x| x.steps).sum::<u64>();
         if local == 0 {
             report.j_estimate_before = j[0].cost;
         }
         report.j_estimate_after = j[0].cost;
-        let g: Vec<f64> = (0..d).map(|i| (j[1 + 2 * i].cost - j[2 + 2 * i].cost) / (2.0 * s.h)).collect();
+        let g: Vec<f64> = (0..d)
+            .map(|i| if width[i] > 0.0 { (j[1 + 2 * i].cost - j[2 + 2 * i].cost) / width[i] } else { 0.0 })
+            .collect();
         let norm = g.iter().map(|x| x * x).sum::<f64>().sqrt();
         if !(norm > 0.0 && norm.is_finite()) {
             continue;
@@ -484,8 +319,9 @@ fn polish_run<E: ParamMdp + Sync>(
         // iteration and try a longer step with the next iteration's episodes.
         let mut accepted = false;
         for _ in 0..6 {
-            let y: Vec<f64> = z.iter().zip(&g).map(|(zi, gi)| zi - step * gi / norm).collect();
-            let jy = sampled_cost(env, action, &y, s, streams, it);
+            let mut y: Vec<f64> = z.iter().zip(&g).map(|(zi, gi)| zi - step * gi / norm).collect();
+            space.project(&mut y);
+            let jy = sampled::sampled_cost(env, action, &y, s, streams, it);
             report.transitions += jy.steps;
             if jy.beats(&j[0]) {
                 z = y;
@@ -504,23 +340,12 @@ fn polish_run<E: ParamMdp + Sync>(
     (z, action, report)
 }
 
-/// Sampled costs of several routings at one design, on the episodes of polish iteration `it`.
-fn sampled_costs_of<E: ParamMdp + Sync>(
-    env: &E,
-    actions: &[&[usize]],
-    zeta: &[f64],
-    s: &PolishSettings,
-    streams: &Streams,
-    it: u64,
-) -> Vec<Sampled> {
-    on_two_threads(actions, |a| sampled_cost(env, a, zeta, s, streams, it))
-}
-
 #[cfg(test)]
 mod tests {
+    use super::sampled::{Sampled, sampled_cost};
     use super::*;
     use crate::nets::ActionSets;
-    use envpg_core::UavNetwork;
+    use envpg_envs::uav::{GenerateSpec, UavNetwork, generate};
     use envpg_model::{Snapshot, evaluate};
 
     /// A 20-user, 3-UAV instance at κ = 0.85.
@@ -530,7 +355,7 @@ mod tests {
 
     /// The same instance at another κ.
     fn tiny_at(kappa: f64) -> UavNetwork {
-        let inst = envpg_core::instance::generate(&envpg_core::instance::GenerateSpec {
+        let inst = generate(&GenerateSpec {
             name: "tiny".into(),
             n_users: 20,
             n_uav: 3,
@@ -567,8 +392,8 @@ mod tests {
             h: 0.005,
             step: 0.05,
             episode_cap: 25,
-            routing_rounds: 0,
-            routing_samples: 0,
+            policy_rounds: 0,
+            policy_samples: 0,
             candidates: 1,
             candidate_spread: 0.0,
             screen_iterations: 0,
@@ -605,13 +430,13 @@ mod tests {
     }
 
     #[test]
-    fn a_routing_round_takes_the_exact_improving_action_wherever_it_is_clear() {
+    fn a_policy_round_takes_the_exact_improving_action_wherever_it_is_clear() {
         let net = tiny();
         let action = policy(&net);
         let zeta: Vec<f64> = net.instance().users[..3].iter().flat_map(|u| [u[0] + 0.5, u[1] - 0.5]).collect();
-        let s = PolishSettings { routing_samples: 4096, ..settings(1) };
-        let p = improve_routing(&net, &action, &zeta, &s, &Streams::new(5), 0);
-        assert_eq!(p, improve_routing(&net, &action, &zeta, &s, &Streams::new(5), 0), "same inputs, same proposal");
+        let s = PolishSettings { policy_samples: 4096, ..settings(1) };
+        let p = improve_policy(&net, &action, &zeta, &s, &Streams::new(5), 0);
+        assert_eq!(p, improve_policy(&net, &action, &zeta, &s, &Streams::new(5), 0), "same inputs, same proposal");
         let q = exact_q(&net, &action, &zeta);
         let mut clear = 0;
         for st in (0..net.n_states()).filter(|&st| !net.is_terminal(st)) {
@@ -629,18 +454,18 @@ mod tests {
     }
 
     #[test]
-    fn routing_rounds_let_the_polish_go_below_the_frozen_routing() {
+    fn policy_rounds_let_the_polish_go_below_the_frozen_policy() {
         let net = tiny();
         let action = policy(&net);
         let zeta: Vec<f64> = net.instance().users[..3].iter().flat_map(|u| [u[0] + 1.0, u[1] - 1.0]).collect();
         let streams = Streams::new(2);
         let (zf, af, _) = polish(&net, &action, &zeta, &settings(20), &streams);
-        assert_eq!(af, action, "without rounds the routing is frozen");
-        let s = PolishSettings { routing_rounds: 4, routing_samples: 512, ..settings(20) };
+        assert_eq!(af, action, "without rounds the policy is frozen");
+        let s = PolishSettings { policy_rounds: 4, policy_samples: 512, ..settings(20) };
         let (zr, ar, r) = polish(&net, &action, &zeta, &s, &streams);
-        assert_eq!((r.routing_rounds, r.routing_accepted > 0), (4, true), "{r:?}");
-        let (frozen, routed) = (exact_j(&net, &af, &zf), exact_j(&net, &ar, &zr));
-        assert!(routed < 0.95 * frozen, "exact J: frozen routing {frozen}, improved routing {routed}");
+        assert_eq!((r.policy_rounds, r.policy_accepted > 0), (4, true), "{r:?}");
+        let (frozen, improved) = (exact_j(&net, &af, &zf), exact_j(&net, &ar, &zr));
+        assert!(improved < 0.95 * frozen, "exact J: frozen policy {frozen}, improved policy {improved}");
     }
 
     #[test]
@@ -661,13 +486,13 @@ mod tests {
         assert!(exact_j(&net, &a, &z) < exact_j(&net, &action, &r.candidates[0].zeta));
         let again = polish_candidates(&net, &starts, &s, &streams);
         assert_eq!((z, a, r), again, "same inputs, same result");
-        let starts = candidate_starts(&near, &s, &streams);
+        let starts = candidate_starts(&near, &s, &streams, envpg_core::ParamMdp::zeta_space(&net));
         assert_eq!((starts.len(), &starts[0]), (2, &near));
         assert_ne!(starts[1], near);
     }
 
     #[test]
-    fn a_looping_routing_never_wins_on_the_little_it_costs_before_the_cap() {
+    fn a_looping_policy_never_wins_on_the_little_it_costs_before_the_cap() {
         // κ = 1: no off-target move ever breaks the loop.
         let net = tiny_at(1.0);
         let proper = policy(&net);
@@ -688,7 +513,7 @@ mod tests {
         assert!(l.cost < p.cost, "the trap: capped episodes look cheap ({l:?} {p:?})");
         assert!(l.loops() && !p.loops());
         assert!(p.beats(&l) && !l.beats(&p));
-        // A proper routing's rare long episode is not a loop: then the cost decides.
+        // A proper policy's rare long episode is not a loop: then the cost decides.
         let rare = Sampled { capped: 1, episodes: 8192, cost: p.cost - 1.0, ..p };
         assert!(!rare.loops() && rare.beats(&p));
         let s = PolishSettings { candidates: 2, screen_iterations: 1, ..s };

@@ -1,0 +1,106 @@
+//! Sampled costs of a deterministic policy at a design, on common random numbers, and how the
+//! polish ranks them: a sample that loops (an SSP whose episodes run into the cap) loses to any
+//! that does not, since a loop between two close points runs up little cost before the cap.
+
+use envpg_core::{ParamMdp, Purpose, Streams};
+
+use super::{PolishSettings, on_two_threads};
+
+/// Mean cost of episodes `0..n` of polish iteration `it` at `zeta` under the deterministic
+/// policy `action` (one action per state), and the number of steps taken.
+pub(super) fn sampled_cost<E: ParamMdp + Sync + ?Sized>(
+    env: &E,
+    action: &[usize],
+    zeta: &[f64],
+    s: &PolishSettings,
+    streams: &Streams,
+    it: u64,
+) -> Sampled {
+    let gamma = env.gamma();
+    let mut out = Sampled { cost: 0.0, capped: 0, steps: 0, episodes: s.episodes as u64, ssp: gamma == 1.0 };
+    for e in 0..s.episodes as u64 {
+        let mut rng = streams.stream(Purpose::Polish, it, e);
+        let mut st = env.sample_initial(&mut rng);
+        let mut done = false;
+        let mut disc = 1.0;
+        for _ in 0..s.episode_cap {
+            let (s2, c) = env.step(st, action[st], zeta, &mut rng);
+            out.cost += disc * c;
+            disc *= gamma;
+            out.steps += 1;
+            if env.is_terminal(s2) {
+                done = true;
+                break;
+            }
+            st = s2;
+        }
+        out.capped += u64::from(!done);
+    }
+    out.cost /= s.episodes as f64;
+    out
+}
+
+/// The sampled cost of one (design, policy) on a set of episodes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Sampled {
+    /// Mean episode cost (capped episodes count with the cost they ran up).
+    pub(super) cost: f64,
+    /// Episodes that hit the length cap.
+    pub(super) capped: u64,
+    /// Environment steps taken.
+    pub(super) steps: u64,
+    /// Episodes sampled.
+    pub(super) episodes: u64,
+    /// Whether the environment is an SSP (γ = 1): only then does a capped episode mean a loop;
+    /// with γ < 1 it is a truncation.
+    pub(super) ssp: bool,
+}
+
+/// A sample loops when more than this fraction of its episodes hit the cap. A loop that even
+/// one user of the 271 is routed into caps 1/271 of the episodes; with off-target moves, a
+/// proper routing's rare long episodes cap a few in ten thousand.
+pub(super) const LOOP_FRACTION: f64 = 1e-3;
+
+impl Sampled {
+    /// Whether the routing loops on these episodes.
+    pub(super) fn loops(&self) -> bool {
+        self.ssp && self.capped as f64 > LOOP_FRACTION * self.episodes as f64
+    }
+
+    /// Sort key: a routing that loops between two close UAVs runs up little cost before the
+    /// cap and must not look cheap, so looping samples come last (fewer capped episodes
+    /// first among them); the rest are ranked by cost.
+    pub(super) fn key(&self) -> (bool, u64, f64) {
+        (self.loops(), if self.loops() { self.capped } else { 0 }, self.cost)
+    }
+
+    /// Whether this sample ranks before `other`.
+    pub(super) fn beats(&self, other: &Sampled) -> bool {
+        self.key().partial_cmp(&other.key()) == Some(std::cmp::Ordering::Less)
+    }
+}
+
+/// Sampled costs at each design, on two threads when there are designs enough; the values do
+/// not depend on the thread count (each is computed whole by one thread).
+pub(super) fn sampled_costs<E: ParamMdp + Sync + ?Sized>(
+    env: &E,
+    action: &[usize],
+    designs: &[Vec<f64>],
+    s: &PolishSettings,
+    streams: &Streams,
+    it: u64,
+) -> Vec<Sampled> {
+    on_two_threads(designs, |z| sampled_cost(env, action, z, s, streams, it))
+}
+
+/// Sampled costs of several policies at one design, on the episodes of polish iteration `it`.
+pub(super) fn sampled_costs_of<E: ParamMdp + Sync + ?Sized>(
+    env: &E,
+    actions: &[&[usize]],
+    zeta: &[f64],
+    s: &PolishSettings,
+    streams: &Streams,
+    it: u64,
+) -> Vec<Sampled> {
+    on_two_threads(actions, |a| sampled_cost(env, a, zeta, s, streams, it))
+}

@@ -1,0 +1,372 @@
+//! # envpg-launch
+//!
+//! The launcher of Algorithm 1 as a library: [`main`] is the whole `envpg-launch` program for
+//! the environments of a [`Registry`], so a crate with environments of its own gets the same
+//! launcher (distributed workers, faults, resume, multi-host) in one line:
+//!
+//! ```no_run
+//! fn main() -> std::process::ExitCode {
+//!     envpg_launch::main(envpg_envs::registry() /* .register::<MyEnv>() */)
+//! }
+//! ```
+//!
+//! By default it supervises a learner process and `--workers N` rollout-worker processes linked
+//! by iceoryx2 shared memory (the same executable in the `learner` / `worker` roles, so the
+//! workers know the same environments); `--in-process` runs the same learner and worker code as
+//! threads of one process. With the `multi-host` feature, `--listen ENDPOINT` also lets worker
+//! hosts join over zenoh (`envpg-launch worker --connect ENDPOINT --workers N` on each of them).
+//!
+//! Data flow: instance file → [`Registry`] → run description (`run.json`: canonical instance,
+//! seed, settings) → learner and worker processes, each building the environment from it →
+//! episodes over iceoryx2 → the learner's update → weights back to the workers.
+//!
+//! Exit codes: 0 success, 1 the run failed, 2 bad input, 130 interrupted.
+
+mod args;
+mod bench;
+mod in_process;
+mod multi_host;
+mod roles;
+mod run_dir;
+mod supervise;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+use envpg_core::Registry;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::run_dir::RunFile;
+
+/// Train a policy and the environment design together with the EnvPG actor–critic.
+#[derive(Debug, Parser)]
+#[command(name = "envpg-launch", version, about, args_conflicts_with_subcommands = true)]
+struct Cli {
+    #[command(subcommand)]
+    role: Option<Role>,
+    #[command(flatten)]
+    train: args::TrainArgs,
+    #[command(flatten)]
+    launch: LaunchArgs,
+}
+
+/// How the run is executed.
+#[derive(Debug, clap::Args)]
+struct LaunchArgs {
+    /// Rollout-worker processes on this host (threads with --in-process); 0 is allowed with
+    /// --listen, when every worker is remote.
+    #[arg(long, default_value_t = 2)]
+    workers: usize,
+    /// Also accept rollout workers from other hosts on this zenoh endpoint, e.g.
+    /// `tcp/0.0.0.0:7447` (needs the `multi-host` build feature).
+    #[arg(long, value_name = "ENDPOINT")]
+    listen: Option<String>,
+    /// The learner gives up when no episode arrives for this long while work is pending
+    /// (seconds); raise it when remote workers may be cut off for a while.
+    #[arg(long, default_value_t = 60)]
+    stall_timeout_s: u64,
+    /// Run learner and workers as threads of this process (no shared memory needed).
+    #[arg(long)]
+    in_process: bool,
+    /// Write the result file (envpg.result.v2) here.
+    #[arg(long, default_value = "envpg-result.json")]
+    out: PathBuf,
+    /// Run directory for run.json and the checkpoint [default: a fresh directory under the
+    /// system temp dir].
+    #[arg(long)]
+    run_dir: Option<PathBuf>,
+    /// Checkpoint the learner every this many iterations (needs a run directory to resume from).
+    #[arg(long, default_value_t = 0)]
+    checkpoint_every: u64,
+    /// Continue the run in DIR from its last checkpoint (other options are taken from DIR).
+    #[arg(long, value_name = "DIR")]
+    resume: Option<PathBuf>,
+    /// Extra real compute per environment step in the workers, in microseconds (benchmarks).
+    #[arg(long, default_value_t = 0)]
+    emulator_cost_us: u64,
+    /// A worker silent for this long is presumed dead and its episodes go to others.
+    #[arg(long, default_value_t = 2000)]
+    worker_timeout_ms: u64,
+    /// Protocol version the workers announce (to test version checks).
+    #[arg(long, hide = true, default_value_t = envpg_protocol::PROTOCOL_VERSION)]
+    worker_protocol_version: u32,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+    /// Measure rollout and transport throughput (raw loop, in-process, 1..N worker processes)
+    /// and weight-broadcast latency instead of training; see also --bench-workers.
+    #[arg(long)]
+    bench: bool,
+    /// Worker-process counts measured by --bench.
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
+    bench_workers: Vec<usize>,
+    /// Rounds of every --bench measurement (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    bench_repeats: usize,
+    /// Also write the --bench report as JSON here.
+    #[arg(long)]
+    bench_out: Option<PathBuf>,
+}
+
+#[derive(Debug, Subcommand)]
+enum Role {
+    /// (internal) The learner process of a run.
+    #[command(hide = true)]
+    Learner {
+        /// Run directory.
+        #[arg(long)]
+        run_dir: PathBuf,
+        /// Continue from the checkpoint.
+        #[arg(long)]
+        resume: bool,
+    },
+    /// Rollout workers on this host for a learner on another one: `worker --connect
+    /// tcp/HOST:PORT --workers N` (needs the `multi-host` build feature). Without --connect this
+    /// is the internal worker role of a local run.
+    Worker {
+        /// The learner host's endpoint (as given to its `--listen`).
+        #[arg(long, value_name = "ENDPOINT", conflicts_with_all = ["run_dir", "worker_id"])]
+        connect: Option<String>,
+        /// Worker processes to run on this host (with --connect).
+        #[arg(long, default_value_t = 2)]
+        workers: usize,
+        /// Give up if no learner answers for this long (seconds, with --connect).
+        #[arg(long, default_value_t = 60)]
+        join_timeout_s: u64,
+        /// Leave when the learner host has been unreachable for this long (seconds, with
+        /// --connect; a live learner host answers every second even between iterations).
+        #[arg(long, default_value_t = 120)]
+        link_timeout_s: u64,
+        /// (internal) Run directory.
+        #[arg(long, hide = true)]
+        run_dir: Option<PathBuf>,
+        /// (internal) Worker slot.
+        #[arg(long, hide = true)]
+        worker_id: Option<u32>,
+        /// (internal) Incarnation of the slot.
+        #[arg(long, hide = true, default_value_t = 1)]
+        incarnation: u64,
+        /// (internal) Protocol version to announce.
+        #[arg(long, hide = true, default_value_t = envpg_protocol::PROTOCOL_VERSION)]
+        protocol_version: u32,
+    },
+}
+
+/// Marks an error as bad input (exit code 2).
+#[derive(Debug)]
+pub(crate) struct InputError(pub(crate) String);
+
+impl std::fmt::Display for InputError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for InputError {}
+
+/// The `envpg-launch` program for the environments of `registry`: parses the command line,
+/// runs, and maps errors to exit codes (2 for bad input, 1 for a failed run, 130 interrupted).
+pub fn main(registry: Registry) -> ExitCode {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        // zenoh's own warnings (e.g. about scouting while a learner host is not up yet) are
+        // noise here: the bridge reports what matters itself.
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn,zenoh=error,zenoh_transport=error"));
+    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).try_init();
+    envpg_transport::quiet_iceoryx2_logs();
+    envpg_ac::memory::retain_freed_memory();
+    let cli = Cli::parse();
+    let result = match cli.role {
+        Some(Role::Learner { run_dir, resume }) => roles::learner(&run_dir, resume, &registry),
+        Some(Role::Worker {
+            connect: Some(endpoint),
+            workers,
+            join_timeout_s,
+            link_timeout_s,
+            protocol_version,
+            ..
+        }) => multi_host::worker_host(
+            &multi_host::WorkerHost {
+                endpoint,
+                workers,
+                join_timeout: Duration::from_secs(join_timeout_s),
+                link_timeout: Duration::from_secs(link_timeout_s),
+                protocol: protocol_version,
+            },
+            &registry,
+        ),
+        Some(Role::Worker {
+            run_dir: Some(run_dir),
+            worker_id: Some(worker_id),
+            incarnation,
+            protocol_version,
+            ..
+        }) => roles::worker(&run_dir, worker_id, incarnation, protocol_version, &registry).map(|_| ()),
+        Some(Role::Worker { .. }) => {
+            Err(InputError("`envpg-launch worker` needs --connect ENDPOINT (the learner host's --listen)".into())
+                .into())
+        }
+        None => run(cli.train, cli.launch, &registry),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            if e.chain().any(|c| {
+                c.is::<supervise::Interrupted>()
+                    || c.is::<multi_host::HostInterrupted>()
+                    || matches!(
+                        c.downcast_ref::<envpg_learner::LearnerError>(),
+                        Some(envpg_learner::LearnerError::Terminated(_))
+                    )
+            }) {
+                return ExitCode::from(130);
+            }
+            let input = e.chain().any(|c| {
+                c.is::<InputError>()
+                    || c.is::<envpg_core::InstanceError>()
+                    || c.is::<envpg_core::result::ResultError>()
+                    || c.is::<envpg_core::ZetaError>()
+                    || c.is::<envpg_ac::config::ConfigError>()
+                    || c.is::<envpg_ac::config::PresetError>()
+                    || c.is::<multi_host::NotBuilt>()
+                    || multi_host::is_input_error(c)
+            });
+            ExitCode::from(if input { 2 } else { 1 })
+        }
+    }
+}
+
+fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.enable_steady_tick(Duration::from_millis(200));
+    bar
+}
+
+fn message(alpha: f64, j_h: f64, j: Option<f64>, tps: f64) -> String {
+    format!("α={alpha:.3e} J_H≈{j_h:.3} J={} {tps:.0} tr/s", j.map_or("-".into(), |j| format!("{j:.4}")))
+}
+
+fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Result<()> {
+    if launch.bench {
+        let (env, spec) = train.spec(registry).map_err(|e| InputError(format!("{e:#}")))?;
+        let dir = std::env::temp_dir().join(format!("envpg-bench-{}", run_dir::new_run_id()));
+        std::fs::create_dir_all(&dir)?;
+        let report =
+            bench::run(&env, &spec, launch.emulator_cost_us, &launch.bench_workers, launch.bench_repeats, &dir);
+        let _ = std::fs::remove_dir_all(&dir);
+        let report = report?;
+        bench::print(&report);
+        if let Some(p) = &launch.bench_out {
+            envpg_core::io::write_atomic(p, serde_json::to_string_pretty(&report)?.as_bytes())?;
+        }
+        return Ok(());
+    }
+    let (dir, run, resume) = match &launch.resume {
+        Some(dir) => {
+            let run = RunFile::load(dir).map_err(|e| InputError(format!("--resume {}: {e:#}", dir.display())))?;
+            (dir.clone(), run, true)
+        }
+        None => {
+            // Everything that goes wrong while turning arguments into a run is the user's input.
+            let (_, spec) = train.spec(registry).map_err(|e| InputError(format!("{e:#}")))?;
+            if launch.workers == 0 && (launch.in_process || launch.listen.is_none()) {
+                return Err(InputError("--workers must be at least 1 (0 only with --listen)".into()).into());
+            }
+            if let Some(endpoint) = &launch.listen {
+                if launch.in_process {
+                    return Err(InputError("--listen needs the distributed mode, not --in-process".into()).into());
+                }
+                multi_host::check_listen(endpoint)?;
+            }
+            if launch.stall_timeout_s == 0 {
+                return Err(InputError("--stall-timeout-s must be at least 1".into()).into());
+            }
+            let run_id = run_dir::new_run_id();
+            let dir = launch.run_dir.clone().unwrap_or_else(|| std::env::temp_dir().join(format!("envpg-{run_id}")));
+            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+            let out =
+                if launch.out.is_absolute() { launch.out.clone() } else { std::env::current_dir()?.join(&launch.out) };
+            let run = RunFile {
+                run_id,
+                spec,
+                out,
+                workers: launch.workers,
+                checkpoint_every: launch.checkpoint_every,
+                emulator_cost_us: launch.emulator_cost_us,
+                worker_timeout_ms: launch.worker_timeout_ms,
+                stall_timeout_s: launch.stall_timeout_s,
+                listen: launch.listen.clone(),
+            };
+            run.save(&dir)?;
+            (dir, run, false)
+        }
+    };
+    let bar = progress_bar(run.spec.config.iterations as u64, launch.quiet);
+    let j = if launch.in_process {
+        let checkpoint = (run.checkpoint_every > 0).then(|| envpg_learner::CheckpointPolicy {
+            path: RunFile::checkpoint_path(&dir),
+            every: run.checkpoint_every,
+        });
+        let resume_from =
+            if resume { Some(envpg_protocol::Checkpoint::load(&RunFile::checkpoint_path(&dir))?) } else { None };
+        let env = run.spec.load(registry).map_err(|e| InputError(format!("{e:#}")))?;
+        let (result, _) = in_process::run(&run, &env, checkpoint, resume_from, |p| {
+            bar.set_position(p.k + 1);
+            bar.set_message(message(p.alpha, p.j_h_estimate, p.j_exact, p.transitions_per_s));
+            true
+        })?;
+        result.save(&run.out).with_context(|| format!("writing {}", run.out.display()))?;
+        result.j
+    } else {
+        let l = supervise::Launch {
+            dir: dir.clone(),
+            resume,
+            worker_protocol: launch.worker_protocol_version,
+            max_restarts: 20,
+        };
+        let outcome = supervise::supervise(&l, |v| {
+            let f = |k: &str| v.get(k).and_then(|x| x.as_f64());
+            if let Some(k) = v.get("k").and_then(|x| x.as_u64()) {
+                bar.set_position(k + 1);
+                bar.set_message(message(
+                    f("alpha").unwrap_or(0.0),
+                    f("j_h").unwrap_or(0.0),
+                    f("j"),
+                    f("tps").unwrap_or(0.0),
+                ));
+            }
+        })?;
+        if let Some(bridge) = outcome.bridge {
+            // The learner wrote the result; add what crossed hosts, for the record.
+            let mut result = envpg_core::ResultFile::load(&run.out)
+                .with_context(|| format!("reading {} to add the bridge's traffic", run.out.display()))?;
+            let details = result.details.get_or_insert_with(|| serde_json::json!({}));
+            if let Some(d) = details.as_object_mut() {
+                d.insert("bridge".into(), bridge);
+            }
+            result.save(&run.out).with_context(|| format!("writing {}", run.out.display()))?;
+        }
+        outcome.done.as_ref().and_then(|d| d.get("J")).and_then(|j| j.as_f64())
+    };
+    bar.finish_and_clear();
+    if !launch.quiet {
+        println!(
+            "J = {}  → {}  (run directory {})",
+            j.map_or("inf".into(), |j| format!("{j:.6}")),
+            run.out.display(),
+            dir.display()
+        );
+    }
+    Ok(())
+}
