@@ -1,15 +1,8 @@
 //! [`AcConfig`]: every setting of Algorithm 1, with defaults, validation and TOML presets.
 
-use std::path::Path;
-
 use serde::{Deserialize, Serialize};
 
-/// The bundled preset file (`launch/presets.toml`), compiled in so every binary works from any
-/// directory.
-pub const BUNDLED_PRESETS: &str = include_str!("../../../launch/presets.toml");
-
-/// The preset of an environment that has none of its own: the defaults, tuned on the UAV network.
-pub const DEFAULT_PRESET: &str = "uav";
+pub use crate::presets::{BUNDLED_PRESETS, DEFAULT_PRESET, PresetError};
 
 /// How the actor follows the critic.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -180,8 +173,21 @@ pub struct AcConfig {
     pub polish_spread: f64,
     /// Screening iterations per start.
     pub polish_screen: usize,
+    /// Significance the polish asks of every sampled improvement it accepts (a ζ step, a new
+    /// policy, a state's switch of action), in standard errors of paired differences on common
+    /// random numbers; 0 accepts any (right where sampled costs are precise, as in the UAV
+    /// network; noisy one-step costs need it).
+    pub polish_z: f64,
     /// Exact J of (ζ_k, greedy π) is recorded every this many iterations (reporting only).
     pub eval_every: usize,
+    /// Settings in the environment's own units ([`AcConfig::resolve`]): temperatures
+    /// (`alpha0`, `alpha_final`) in units of its cost scale C (`ParamMdp::cost_scale`), lengths
+    /// (`sigma`, `polish_h`, `polish_step`, `polish_spread`) in units of its design scale L (the
+    /// mean of `ZetaSpace::scale`), the ζ step size `zeta_lr` in L²/C and the clip `zeta_clip`
+    /// in C/L — so one preset fits environments of any size; with γ < 1 the episode cap is at
+    /// least 3/(1 − γ) steps (all but e⁻³ of the discounted cost). Off: the values are
+    /// absolute.
+    pub scale_free: bool,
 }
 
 impl Default for AcConfig {
@@ -229,7 +235,9 @@ impl Default for AcConfig {
             polish_candidates: 16,
             polish_spread: 0.3,
             polish_screen: 20,
+            polish_z: 0.0,
             eval_every: 50,
+            scale_free: false,
         }
     }
 }
@@ -244,48 +252,36 @@ pub struct ConfigError {
     pub reason: String,
 }
 
-/// A preset file could not be used.
-#[derive(Debug, thiserror::Error)]
-pub enum PresetError {
-    /// Unreadable file.
-    #[error("cannot read preset file {path}: {err}")]
-    Io {
-        /// The file.
-        path: std::path::PathBuf,
-        /// The I/O error.
-        err: std::io::Error,
-    },
-    /// Not valid TOML or unknown keys.
-    #[error("malformed preset file {path}: {err}")]
-    Parse {
-        /// The file.
-        path: std::path::PathBuf,
-        /// The TOML error.
-        err: toml::de::Error,
-    },
-    /// No such preset in the file.
-    #[error("preset file {path} has no preset named {name:?} (it has: {available})")]
-    Missing {
-        /// The file.
-        path: std::path::PathBuf,
-        /// The requested name.
-        name: String,
-        /// Names present.
-        available: String,
-    },
-    /// The preset's values are invalid.
-    #[error("preset {name:?} in {path}: {err}")]
-    Invalid {
-        /// The file.
-        path: std::path::PathBuf,
-        /// The preset.
-        name: String,
-        /// The problem.
-        err: ConfigError,
-    },
-}
-
 impl AcConfig {
+    /// The absolute settings for `env`: with [`AcConfig::scale_free`], temperatures, lengths,
+    /// the ζ step size and its clip multiplied by the environment's units (see there);
+    /// otherwise the settings themselves. Every process resolves the same way, bit for bit.
+    pub fn resolve<E: envpg_core::ParamMdp + ?Sized>(&self, env: &E) -> AcConfig {
+        if !self.scale_free {
+            return self.clone();
+        }
+        let c = env.cost_scale();
+        let scales = env.zeta_space().scale();
+        let l = scales.iter().sum::<f64>() / scales.len().max(1) as f64;
+        AcConfig {
+            alpha0: self.alpha0 * c,
+            alpha_final: self.alpha_final * c,
+            sigma: self.sigma * l,
+            polish_h: self.polish_h * l,
+            polish_step: self.polish_step * l,
+            polish_spread: self.polish_spread * l,
+            zeta_lr: self.zeta_lr * l * l / c,
+            zeta_clip: self.zeta_clip * c / l,
+            episode_cap: if env.gamma() < 1.0 {
+                self.episode_cap.max((3.0 / (1.0 - env.gamma())).ceil() as usize)
+            } else {
+                self.episode_cap
+            },
+            scale_free: false,
+            ..self.clone()
+        }
+    }
+
     /// The temperature factor per iteration υ.
     pub fn upsilon(&self) -> f64 {
         if self.alpha_decay > 0.0 {
@@ -315,6 +311,7 @@ impl AcConfig {
             candidates: self.polish_candidates,
             candidate_spread: self.polish_spread,
             screen_iterations: self.polish_screen,
+            z: self.polish_z,
         }
     }
 
@@ -377,6 +374,9 @@ impl AcConfig {
         if !finite_pos(self.polish_step) {
             return err("polish_step", format!("must be finite and > 0, got {}", self.polish_step));
         }
+        if !(self.polish_z.is_finite() && self.polish_z >= 0.0) {
+            return err("polish_z", format!("must be finite and >= 0, got {}", self.polish_z));
+        }
         if !(self.sigma_anneal > 0.0 && self.sigma_anneal <= 1.0) {
             return err("sigma_anneal", format!("must be in (0, 1], got {}", self.sigma_anneal));
         }
@@ -436,37 +436,6 @@ impl AcConfig {
         Ok(())
     }
 
-    /// Loads preset `name` from a TOML file of `[name]` tables; unset keys keep their defaults.
-    pub fn from_preset(path: &Path, name: &str) -> Result<Self, PresetError> {
-        let text = std::fs::read_to_string(path).map_err(|err| PresetError::Io { path: path.to_owned(), err })?;
-        Self::from_preset_str(&text, path, name)
-    }
-
-    /// Preset `name` of the bundled preset file.
-    pub fn bundled(name: &str) -> Result<Self, PresetError> {
-        Self::from_preset_str(BUNDLED_PRESETS, Path::new("<bundled presets.toml>"), name)
-    }
-
-    /// The preset for environment `env` in the bundled preset file: the one named like it, or
-    /// `uav` (the defaults) when there is none.
-    pub fn bundled_for(env: &str) -> Result<Self, PresetError> {
-        Self::from_preset_str_for(BUNDLED_PRESETS, Path::new("<bundled presets.toml>"), env)
-    }
-
-    /// The preset for environment `env` in a preset file (named like it, or `uav`).
-    pub fn from_preset_for(path: &Path, env: &str) -> Result<Self, PresetError> {
-        let text = std::fs::read_to_string(path).map_err(|err| PresetError::Io { path: path.to_owned(), err })?;
-        Self::from_preset_str_for(&text, path, env)
-    }
-
-    /// As [`AcConfig::from_preset_for`], from text.
-    pub fn from_preset_str_for(text: &str, path: &Path, env: &str) -> Result<Self, PresetError> {
-        let table: toml::Table =
-            toml::from_str(text).map_err(|err| PresetError::Parse { path: path.to_owned(), err })?;
-        let name = if table.contains_key(env) { env } else { DEFAULT_PRESET };
-        Self::from_preset_str(text, path, name)
-    }
-
     /// Sets one setting by name from its text, as a preset file would (`sigma` / `0.1`,
     /// `hidden` / `[64, 64]`, `zeta_estimator` / `baseline`), and validates the result.
     pub fn set(&self, key: &str, value: &str) -> Result<Self, ConfigError> {
@@ -487,22 +456,6 @@ impl AcConfig {
             .try_into()
             .map_err(|e: toml::de::Error| field(format!("{key} = {value}: {}", e.message())))?;
         cfg.validate()?;
-        Ok(cfg)
-    }
-
-    /// As [`AcConfig::from_preset`], from text.
-    pub fn from_preset_str(text: &str, path: &Path, name: &str) -> Result<Self, PresetError> {
-        let mut table: toml::Table =
-            toml::from_str(text).map_err(|err| PresetError::Parse { path: path.to_owned(), err })?;
-        let Some(value) = table.remove(name) else {
-            return Err(PresetError::Missing {
-                path: path.to_owned(),
-                name: name.to_owned(),
-                available: table.keys().cloned().collect::<Vec<_>>().join(", "),
-            });
-        };
-        let cfg: AcConfig = value.try_into().map_err(|err| PresetError::Parse { path: path.to_owned(), err })?;
-        cfg.validate().map_err(|err| PresetError::Invalid { path: path.to_owned(), name: name.to_owned(), err })?;
         Ok(cfg)
     }
 }
@@ -534,20 +487,6 @@ mod tests {
     }
 
     #[test]
-    fn presets_override_defaults_and_reject_unknown_keys() {
-        let text = "[fast]\niterations = 10\nsigma = 0.1\nzeta_estimator = \"sampled\"\n[other]\nepisodes = 3\n";
-        let c = AcConfig::from_preset_str(text, Path::new("p.toml"), "fast").unwrap();
-        assert_eq!((c.iterations, c.sigma, c.zeta_estimator), (10, 0.1, ZetaEstimator::Sampled));
-        assert_eq!(c.episodes, AcConfig::default().episodes);
-        let e = AcConfig::from_preset_str("[x]\nsigmaa = 1\n", Path::new("p.toml"), "x").unwrap_err();
-        assert!(e.to_string().contains("unknown field `sigmaa`"), "{e}");
-        let e = AcConfig::from_preset_str(text, Path::new("p.toml"), "nope").unwrap_err();
-        assert!(e.to_string().contains("fast, other"), "{e}");
-        let e = AcConfig::from_preset_str("[x]\nsigma = -1.0\n", Path::new("p.toml"), "x").unwrap_err();
-        assert!(e.to_string().contains("sigma"), "{e}");
-    }
-
-    #[test]
     fn settings_are_set_by_name_from_text() {
         let c = AcConfig::default();
         assert_eq!(c.set("sigma", "0.1").unwrap().sigma, 0.1);
@@ -558,14 +497,6 @@ mod tests {
         assert_eq!(c.set("sigma", "-1").unwrap_err().field, "sigma");
         assert!(c.set("iterations", "many").is_err());
         assert!(c.set("zeta_estimator", "best").is_err());
-    }
-
-    #[test]
-    fn bundled_presets_load() {
-        for name in ["uav", "paper", "smoke"] {
-            AcConfig::bundled(name).unwrap();
-        }
-        assert_eq!(AcConfig::bundled("uav").unwrap(), AcConfig::default());
     }
 
     #[test]

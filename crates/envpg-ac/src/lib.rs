@@ -3,7 +3,9 @@
 //! Algorithm 1 of the paper, the EnvPG actor–critic, kept apart from the processes that run it.
 //!
 //! ## Main types
-//! - [`AcConfig`]: every setting, with defaults, validation and TOML presets.
+//! - [`AcConfig`]: every setting, with defaults, validation and the per-environment units
+//!   ([`AcConfig::resolve`]); [`Presets`]: named settings in TOML files (a user's, the
+//!   program's, envpg's), one preset extending another.
 //! - [`Features`]: network inputs of (s, a, ζ) and the chain rule back to ζ.
 //! - [`PolicyTable`]: π_θk(·|s, ζ_k) for all states — what rollouts sample from.
 //! - [`rollout::run_episode`]: the worker algorithm; touches the environment only through
@@ -13,7 +15,7 @@
 //! - [`memory::retain_freed_memory`]: the allocator setting that processes running a
 //!   [`Learner`] call first (speed only).
 //! - [`polish::polish_candidates`]: after the last iteration, ζ refined for the greedy policy
-//!   by common-random-number differences of sampled episodes, the routing improved by sampled
+//!   by common-random-number differences of sampled episodes, the policy improved by sampled
 //!   policy iteration, from several starts of which the cheapest is kept (model-free, optional).
 //! - [`trainer::train`]: the serial (in-process) wiring of rollouts and learner, with history
 //!   and the result file.
@@ -30,6 +32,7 @@ pub mod learner;
 pub mod memory;
 pub mod nets;
 pub mod polish;
+pub mod presets;
 pub mod rollout;
 pub mod study;
 pub mod table;
@@ -40,5 +43,6 @@ pub use config::{AcConfig, ActorUpdate, CriticInit, Zeta0, ZetaEstimator, ZetaOp
 pub use features::{Features, ZetaInput};
 pub use learner::{Batch, Learner, LearnerError, LearnerState, Stats};
 pub use nets::ActionSets;
+pub use presets::Presets;
 pub use rollout::{Episode, EpisodeKind};
 pub use table::PolicyTable;

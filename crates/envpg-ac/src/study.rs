@@ -93,7 +93,8 @@ pub fn estimator_study(spec: &RunSpec, registry: &Registry, train: usize, sample
     let net = env.sampler();
     let streams = Streams::new(spec.seed);
     let sets = learner.action_sets().clone();
-    advance(net, &mut learner, &spec.config, &streams, train)?;
+    let config = learner.config().clone();
+    advance(net, &mut learner, &config, &streams, train)?;
     let zeta = learner.zeta().to_vec();
     let alpha = learner.alpha();
     let (exact, exact_fixed) = exact_gradients(model, &learner, &zeta, alpha);
@@ -104,7 +105,7 @@ pub fn estimator_study(spec: &RunSpec, registry: &Registry, train: usize, sample
     for i in 0..samples {
         let k = (train + 1_000_000 + i) as u64;
         let mut table = learner.policy_table();
-        let episodes = run_iteration(net, &sets, &mut table, &zeta, &spec.config, &streams, k);
+        let episodes = run_iteration(net, &sets, &mut table, &zeta, &config, &streams, k);
         let on: Vec<_> = episodes.iter().filter(|e| !e.explore).collect();
         for (j, &kind) in kinds.iter().enumerate() {
             let g = learner.zeta_gradient_with(&on, kind);

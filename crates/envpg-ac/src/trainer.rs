@@ -77,8 +77,8 @@ impl RunSpec {
     pub fn start_on(&self, env: &LoadedEnv) -> Result<(Vec<f64>, Learner), TrainError> {
         self.config.validate()?;
         let zeta0 = initial_design(env.sampler(), &self.config.zeta0, self.seed).map_err(TrainError::Zeta0)?;
-        let learner =
-            Learner::new(env.shared_sampler(), env.env.feature_map(), self.config.clone(), self.seed, zeta0.clone());
+        let config = self.config.resolve(env.sampler());
+        let learner = Learner::new(env.shared_sampler(), env.env.feature_map(), config, self.seed, zeta0.clone());
         Ok((zeta0, learner))
     }
 }
@@ -218,13 +218,23 @@ impl Recorder {
     /// scored at the polished ζ; `details.polish` keeps the design before the polish with its
     /// greedy policy and their exact J (`J_before`): Algorithm 1 alone.
     pub fn finish(&self, learner: &Learner, method: &str, details: serde_json::Value) -> ResultFile {
+        self.finish_with(learner, method, details, true)
+    }
+
+    /// [`Recorder::finish`] without the ζ polish, whatever the settings (benchmarks of rollouts
+    /// and transport, which never train).
+    pub fn finish_unpolished(&self, learner: &Learner, method: &str, details: serde_json::Value) -> ResultFile {
+        self.finish_with(learner, method, details, false)
+    }
+
+    fn finish_with(&self, learner: &Learner, method: &str, details: serde_json::Value, polish: bool) -> ResultFile {
         let env = self.env.sampler();
         let model = self.env.env.model();
         let before = learner.reported_zeta();
         let mut table = PolicyTable::new(learner.actor(), learner.features(), learner.action_sets(), &before);
         let started = Instant::now();
-        let (zeta, greedy, polish) = if self.spec.config.polish_iterations > 0 {
-            let settings = self.spec.config.polish();
+        let (zeta, greedy, polish) = if polish && learner.config().polish_iterations > 0 {
+            let settings = learner.config().polish();
             let streams = Streams::new(self.spec.seed);
             // Each start begins with the actor's greedy policy at that design.
             let starts: Vec<(Vec<f64>, Vec<usize>)> =
@@ -358,7 +368,7 @@ pub fn train(
         let k = learner.k();
         let mut table = learner.policy_table();
         let zeta_k = learner.zeta().to_vec();
-        let episodes = run_iteration(env.sampler(), &sets, &mut table, &zeta_k, &spec.config, &streams, k);
+        let episodes = run_iteration(env.sampler(), &sets, &mut table, &zeta_k, learner.config(), &streams, k);
         let stats = learner.update(&Batch { k, episodes })?;
         let p = rec.record(&zeta_k, &mut table, &stats);
         if !progress(&p) {

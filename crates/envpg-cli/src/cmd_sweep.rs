@@ -54,7 +54,7 @@ pub fn run(a: SweepArgs, tools: &Tools) -> Result<()> {
         registry: tools.registry.clone(),
         instance: env.instance.clone(),
         seeds: parse_seeds(&a.seeds)?,
-        config: a.settings.config(env.name)?,
+        config: a.settings.config(&tools.registry, env.name)?,
         param: a.param.clone(),
         values: split_values(&a.values),
         study_at: a.study_at,

@@ -58,7 +58,7 @@ pub struct TableArgs {
 /// Runs the table.
 pub fn run(a: TableArgs, tools: &Tools) -> Result<()> {
     let env = a.instance.load(&tools.registry)?;
-    let config = a.settings.config(env.name)?;
+    let config = a.settings.config(&tools.registry, env.name)?;
     let (runner, jobs) = a.runner.runner(&a.out, tools)?;
     let vary = match (&a.vary, &a.kappas) {
         (Some(v), _) => Some(parse_vary(v)?),

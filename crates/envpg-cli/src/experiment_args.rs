@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use envpg_ac::AcConfig;
 use envpg_ac::trainer::RunSpec;
-use envpg_core::ResultFile;
+use envpg_core::{Registry, ResultFile};
 use envpg_report::{Alg1Runner, InProcess};
 
 use crate::args::{InputError, Tools, input_err};
@@ -17,10 +17,12 @@ use crate::args::{InputError, Tools, input_err};
 #[derive(Debug, Clone, Args)]
 pub struct SettingsArgs {
     /// Preset of Algorithm 1 settings (see launch/presets.toml) [default: the preset named like
-    /// the environment (`uav`, `aac`, `flpo`), or `uav` for one without].
+    /// the environment (`uav`, `aac`), or `default` (the `uav` settings in the environment's
+    /// units) for one without].
     #[arg(long)]
     pub preset: Option<String>,
-    /// Preset file [default: the bundled launch/presets.toml].
+    /// Preset file, searched before the program's and envpg's bundled presets (a preset may
+    /// extend another with `base = "name"`).
     #[arg(long)]
     pub presets: Option<PathBuf>,
     /// Outer iterations of every Algorithm 1 run (shortcut for --set iterations=N).
@@ -33,13 +35,8 @@ pub struct SettingsArgs {
 
 impl SettingsArgs {
     /// The validated settings for environment `env`.
-    pub fn config(&self, env: &str) -> Result<AcConfig> {
-        let mut c = match (&self.presets, &self.preset) {
-            (Some(p), Some(name)) => AcConfig::from_preset(p, name)?,
-            (Some(p), None) => AcConfig::from_preset_for(p, env)?,
-            (None, Some(name)) => AcConfig::bundled(name)?,
-            (None, None) => AcConfig::bundled_for(env)?,
-        };
+    pub fn config(&self, registry: &Registry, env: &str) -> Result<AcConfig> {
+        let mut c = AcConfig::for_env(registry, self.presets.as_deref(), self.preset.as_deref(), env)?;
         if let Some(n) = self.iterations {
             c = c.set("iterations", &n.to_string()).map_err(|e| InputError(e.to_string()))?;
         }

@@ -103,3 +103,86 @@ fn instance_check_summarises_the_bundled_instance() {
         assert!(stdout(&o).contains(&format!("environment `{env}`")), "{}", stdout(&o));
     }
 }
+
+#[test]
+fn bad_environment_input_exits_2_naming_the_culprit_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p.to_str().unwrap().to_owned()
+    };
+    let unknown = write("unknown.json", r#"{"env": "nope", "name": "x"}"#);
+    let bad_param = write(
+        "bad-param.json",
+        r#"{"env": "flpo", "name": "f", "facilities": 2, "agents": [{"start": [0.1, 0.1], "dest": 0}],
+            "destinations": [[0.9, 0.9]], "params": {"kappa": "high"}}"#,
+    );
+    let no_points = write("no-points.json", r#"{"env": "aac", "name": "a", "clusters": 2}"#);
+    // A result on another environment's instance, given where this one's ζ₀ is expected.
+    let flpo = dir.path().join("flpo.json");
+    let o = envpg(&["oracle", "--instance", "flpo-n10m4", "--restarts", "1", "--out", flpo.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("never.json");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["oracle", "--instance", &unknown], "environment \"nope\", which is not registered"),
+        (vec!["oracle", "--instance", &bad_param], "field `params.kappa`"),
+        (vec!["oracle", "--instance", &no_points], "field `points`: is missing"),
+        (vec!["oracle", "--instance", "aac1800", "--env-param", "kappa=0.9"], "has no parameter \"kappa\""),
+        (vec!["oracle", "--instance", "aac1800", "--kappa", "0.9"], "has no parameter \"kappa\""),
+        (vec!["oracle", "--instance", "aac1800", "--env-param", "deviation"], "expected KEY=VALUE"),
+        (vec!["oracle", "--instance", "aac1800", "--env-param", "deviation=1.5"], "field `params.deviation`"),
+        (vec!["oracle", "--instance", "uav271", "--init", flpo.to_str().unwrap()], "flpo-n10m4"),
+        (vec!["oracle", "--instance", "flpo-n10m4", "--init", "2,0.5,0.5,0.5,0.5,0.5,0.5,0.5"], "outside its bounds"),
+        (vec!["evaluate", "--instance", "flpo-n10m4", "--zeta", "0.5,0.5"], "ζ has 2 entries"),
+        (vec!["table", "--instance", "aac1800", "--vary", "kappa=1,0.9"], "has no parameter \"kappa\""),
+    ];
+    for (mut args, needle) in cases {
+        if args[0] != "evaluate" && args[0] != "table" {
+            args.extend(["--out", out.to_str().unwrap()]);
+        }
+        let o = envpg(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+        assert!(!stderr(&o).contains("panicked"), "{args:?}: {}", stderr(&o));
+        assert!(!out.exists(), "{args:?} wrote its output");
+    }
+}
+
+#[test]
+fn version_1_result_files_still_load_and_rescore() {
+    let dir = tempfile::tempdir().unwrap();
+    let inst = generate(dir.path(), 20, 2);
+    let out = dir.path().join("r.json");
+    let o =
+        envpg(&["oracle", "--instance", &inst, "--kappa", "0.9", "--restarts", "1", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The same result as the v1 schema wrote it: κ and η beside a bare UAV instance.
+    let mut r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let obj = r.as_object_mut().unwrap();
+    obj.insert("schema".into(), "envpg.result.v1".into());
+    obj.remove("env");
+    let params = obj["instance"].as_object_mut().unwrap().remove("params").unwrap();
+    obj["instance"].as_object_mut().unwrap().remove("env");
+    obj.insert("kappa".into(), params["kappa"].clone());
+    obj.insert("eta".into(), params["eta"].clone());
+    let v1 = dir.path().join("v1.json");
+    std::fs::write(&v1, serde_json::to_string(&r).unwrap()).unwrap();
+    let e = envpg(&["evaluate", v1.to_str().unwrap()]);
+    assert!(e.status.success(), "{}{}", stdout(&e), stderr(&e));
+    assert!(
+        stdout(&e).contains("env=uav") && stdout(&e).contains("kappa = 0.9") && stdout(&e).contains(" ok"),
+        "{}",
+        stdout(&e)
+    );
+}
+
+#[test]
+fn envs_lists_every_environment_with_its_parameters() {
+    let o = envpg(&["envs"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    for needle in ["uav:", "aac:", "flpo:", "deviation", "temperature", "kappa", "aac1800", "flpo-n10m4", "uav271"] {
+        assert!(text.contains(needle), "{needle}: {text}");
+    }
+}

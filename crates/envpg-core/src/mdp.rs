@@ -54,6 +54,13 @@ pub trait ParamMdp: Send + Sync {
     fn sample_exploring_start(&self, rng: &mut EnvRng) -> usize {
         self.sample_initial(rng)
     }
+    /// Hook: the order of magnitude of one episode's cost, from observable data (for the UAV
+    /// network, the squared extent of users and destination). Scale-free settings of Algorithm 1
+    /// give temperatures in this unit, and the oracle's default temperatures derive from it.
+    /// Defaults to 1.
+    fn cost_scale(&self) -> f64 {
+        1.0
+    }
     /// Hook: a random initial design (the `random` ζ₀ of Algorithm 1 and of the oracle's
     /// restarts). Defaults to [`ZetaSpace::sample`]: uniform over the bounds.
     fn random_design(&self, rng: &mut EnvRng) -> Vec<f64> {
@@ -239,10 +246,10 @@ pub trait ModelMdp: ParamMdp {
         }
     }
 
-    /// Hook: the scales of the oracle's defaults. The default assumes episode costs of order 1
-    /// and a horizon of one stage per non-terminal state (at most 64).
+    /// Hook: the scales of the oracle's defaults. The default derives them from
+    /// [`ParamMdp::cost_scale`], with a horizon of one stage per non-terminal state (at most 64).
     fn oracle_hints(&self) -> OracleHints {
         let live = (0..self.n_states()).filter(|&s| !self.is_terminal(s)).count();
-        OracleHints::from_cost_scale(1.0, live.clamp(1, 64))
+        OracleHints::from_cost_scale(self.cost_scale(), live.clamp(1, 64))
     }
 }

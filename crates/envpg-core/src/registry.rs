@@ -45,6 +45,7 @@ struct Entry {
 pub struct Registry {
     entries: Vec<Entry>,
     bundled: BTreeMap<String, &'static str>,
+    presets: Vec<&'static str>,
 }
 
 impl fmt::Debug for Registry {
@@ -52,6 +53,7 @@ impl fmt::Debug for Registry {
         f.debug_struct("Registry")
             .field("envs", &self.entries.iter().map(|e| e.name).collect::<Vec<_>>())
             .field("bundled", &self.bundled.keys().collect::<Vec<_>>())
+            .field("preset_files", &self.presets.len())
             .finish()
     }
 }
@@ -79,6 +81,20 @@ impl Registry {
     pub fn bundle(mut self, name: &str, json: &'static str) -> Self {
         self.bundled.insert(name.to_owned(), json);
         self
+    }
+
+    /// Bundles a file of Algorithm 1 presets (TOML `[name]` tables, as `launch/presets.toml`)
+    /// with the program: a preset named like an environment becomes that environment's default
+    /// settings. Files bundled later are searched first, and all before envpg's own presets.
+    /// The text is parsed where settings are read (`envpg-ac`), so an error names the preset.
+    pub fn presets(mut self, toml: &'static str) -> Self {
+        self.presets.insert(0, toml);
+        self
+    }
+
+    /// The bundled preset files, most recently bundled first.
+    pub fn preset_files(&self) -> &[&'static str] {
+        &self.presets
     }
 
     /// Registered environments: (name, one line about it, parameters).
@@ -202,5 +218,90 @@ impl LoadedEnv {
                 found: self.name.to_owned(),
             })
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::env::Env;
+    use crate::mdp::EnvRng;
+    use crate::zeta::ZetaSpace;
+
+    /// One state, one action, no model; `params.c` is its cost.
+    struct Toy(ZetaSpace, f64);
+
+    impl ParamMdp for Toy {
+        fn n_states(&self) -> usize {
+            2
+        }
+        fn n_actions(&self) -> usize {
+            1
+        }
+        fn zeta_space(&self) -> &ZetaSpace {
+            &self.0
+        }
+        fn valid_actions(&self, s: usize) -> &[usize] {
+            if s == 0 { &[0] } else { &[] }
+        }
+        fn is_terminal(&self, s: usize) -> bool {
+            s == 1
+        }
+        fn sample_initial(&self, _: &mut EnvRng) -> usize {
+            0
+        }
+        fn step(&self, _: usize, _: usize, z: &[f64], _: &mut EnvRng) -> (usize, f64) {
+            (1, self.1 + z[0] * z[0])
+        }
+    }
+    impl Env for Toy {}
+    impl EnvSpec for Toy {
+        const NAME: &'static str = "toy";
+        const ABOUT: &'static str = "a toy";
+        fn params() -> Vec<ParamSpec> {
+            vec![ParamSpec { name: "c", default: 1.0, about: "cost" }]
+        }
+        fn from_instance(file: &InstanceFile) -> Result<Self, InstanceError> {
+            file.expect_fields(&["width"])?;
+            let w: f64 = file.field("width")?;
+            Ok(Toy(ZetaSpace::new(vec!["z".into()], vec![-w], vec![w]).unwrap(), file.param("c")?))
+        }
+    }
+
+    const TOY: &str = r#"{"env": "toy", "name": "t", "width": 2}"#;
+
+    fn registry() -> Registry {
+        Registry::new().register::<Toy>().bundle("t", TOY)
+    }
+
+    #[test]
+    fn loads_bundled_instances_with_overrides_into_a_canonical_instance() {
+        let env = registry().load("t", &[("c".into(), 3.0)]).unwrap();
+        assert_eq!((env.name, env.title.as_str(), env.param("c")), ("toy", "t", Some(3.0)));
+        assert_eq!(env.instance["params"]["c"], 3.0);
+        assert_eq!(env.sampler().zeta_space().upper(), &[2.0]);
+        let again = registry().from_value(&env.instance, "r.json").unwrap();
+        assert_eq!(again.instance, env.instance, "a stored instance rebuilds the same environment");
+        let no_model = env.model().err().expect("no model").to_string();
+        assert_eq!(no_model, "`toy` has no model: the oracle and exact evaluation need one");
+    }
+
+    #[test]
+    fn unknown_environments_parameters_and_wrong_environments_are_named() {
+        let r = registry();
+        let bad = InstanceFile::parse(r#"{"env": "nope", "name": "x"}"#, "x.json").unwrap();
+        let e = r.build(bad, &[]).unwrap_err().to_string();
+        assert!(e.contains("\"nope\"") && e.contains("x.json") && e.contains("known: toy"), "{e}");
+        let e = r.load("t", &[("d".into(), 1.0)]).unwrap_err().to_string();
+        assert!(e.contains("--env-param") && e.contains("\"d\"") && e.contains("c"), "{e}");
+        let e = r.load("/no/such/file.json", &[]).unwrap_err().to_string();
+        assert!(e.contains("/no/such/file.json"), "{e}");
+        let env = r.load("t", &[]).unwrap();
+        assert!(env.expect_env("toy", "t").is_ok());
+        let e = env.expect_env("uav", "t.json").unwrap_err().to_string();
+        assert!(e.contains("`toy`") && e.contains("`uav`"), "{e}");
+        // A file without `env` is a UAV instance, which this registry does not know.
+        let legacy = InstanceFile::parse(r#"{"name": "u", "n_uav": 2}"#, "u.json").unwrap();
+        assert!(r.build(legacy, &[]).unwrap_err().to_string().contains("\"uav\""));
     }
 }

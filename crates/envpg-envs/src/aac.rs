@@ -195,6 +195,10 @@ impl ParamMdp for Aac {
     fn is_terminal(&self, s: usize) -> bool {
         s >= self.points.len()
     }
+    /// The squared extent of the points.
+    fn cost_scale(&self) -> f64 {
+        (2.0 * self.scale).powi(2)
+    }
     fn sample_initial(&self, rng: &mut EnvRng) -> usize {
         rng.random_range(0..self.points.len())
     }
@@ -284,7 +288,7 @@ impl ModelMdp for Aac {
     /// Costs of the order of the squared extent of the points; one stage (every episode is
     /// one step).
     fn oracle_hints(&self) -> OracleHints {
-        OracleHints::from_cost_scale((2.0 * self.scale).powi(2), 1)
+        OracleHints::from_cost_scale(self.cost_scale(), 1)
     }
 }
 

@@ -201,6 +201,12 @@ impl ParamMdp for Flpo {
     fn step(&self, s: usize, a: usize, zeta: &[f64], rng: &mut EnvRng) -> (usize, f64) {
         self.hop.step(s, a, zeta, rng)
     }
+    /// The squared extent of agents and destinations.
+    fn cost_scale(&self) -> f64 {
+        let pts: Vec<[f64; 2]> = self.agents.iter().map(|a| a.start).chain(self.destinations.iter().copied()).collect();
+        let (lo, hi) = bbox(&pts);
+        ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2)).max(1e-12)
+    }
     /// A uniformly drawn facility state (any facility, any destination).
     fn sample_exploring_start(&self, rng: &mut EnvRng) -> usize {
         self.n_agents() + rng.random_range(0..self.m * self.n_destinations())
@@ -246,10 +252,7 @@ impl ModelMdp for Flpo {
     /// Costs of the order of the squared extent of agents and destinations; M + 1 stages hold
     /// every simple route through the facilities.
     fn oracle_hints(&self) -> OracleHints {
-        let pts: Vec<[f64; 2]> = self.agents.iter().map(|a| a.start).chain(self.destinations.iter().copied()).collect();
-        let (lo, hi) = bbox(&pts);
-        let scale = ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2)).max(1e-12);
-        OracleHints::from_cost_scale(scale, self.m + 1)
+        OracleHints::from_cost_scale(self.cost_scale(), self.m + 1)
     }
 }
 

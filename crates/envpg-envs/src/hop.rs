@@ -38,6 +38,9 @@ pub struct HopNetwork {
     /// The target state of each valid action.
     targets: Vec<usize>,
     ranges: Vec<(u32, u32)>,
+    /// The target of `(s, a)` at `s · n_actions + a` (`u32::MAX`: invalid): the hot path's
+    /// lookup.
+    target_of: Vec<u32>,
 }
 
 /// Squared distance.
@@ -66,7 +69,13 @@ impl HopNetwork {
             }
             ranges.push((start, actions.len() as u32));
         }
-        Self { n_actions, kappa, eta, places, actions, targets, ranges }
+        let mut target_of = vec![u32::MAX; places.len() * n_actions];
+        for (s, m) in moves.iter().enumerate() {
+            for &(a, t) in m {
+                target_of[s * n_actions + a] = t as u32;
+            }
+        }
+        Self { n_actions, kappa, eta, places, actions, targets, ranges, target_of }
     }
 
     /// Number of states.
@@ -98,9 +107,11 @@ impl HopNetwork {
         &self.targets[a as usize..b as usize]
     }
     /// The target of action `a` in state `s`.
+    #[inline]
     pub fn target(&self, s: usize, a: usize) -> usize {
-        let k = self.valid_actions(s).iter().position(|&b| b == a).expect("valid action");
-        self.targets(s)[k]
+        let t = self.target_of[s * self.n_actions + a];
+        debug_assert!(t != u32::MAX, "action {a} invalid in state {s}");
+        t as usize
     }
     /// Whether `s` is terminal (no valid action).
     pub fn is_terminal(&self, s: usize) -> bool {
@@ -160,10 +171,10 @@ impl HopNetwork {
         // Exactly one uniform decides on-/off-target, and one more picks the off-target state,
         // so the stream's consumption does not depend on κ's value beyond that branch.
         let u: f64 = rng.random();
-        let k = self.valid_actions(s).iter().position(|&b| b == a).expect("valid action");
         let next = if u < self.kappa || !self.deviates(s) {
-            self.targets(s)[k]
+            self.target(s, a)
         } else {
+            let k = self.valid_actions(s).iter().position(|&b| b == a).expect("valid action");
             let mut r: f64 = rng.random();
             with_geometry(self, s, zeta, |g| {
                 g.off_target(k);
@@ -348,14 +359,13 @@ impl HopNetwork {
     /// The geometric features of a hop ([`HopFeatures`]).
     pub fn features(&self) -> Arc<dyn FeatureMap> {
         let (center, scale) = self.fixed_frame();
-        let n = self.n_states();
-        let mut target_of = vec![u32::MAX; n * self.n_actions];
-        for s in 0..n {
-            for (&a, &t) in self.valid_actions(s).iter().zip(self.targets(s)) {
-                target_of[s * self.n_actions + a] = t as u32;
-            }
-        }
-        Arc::new(HopFeatures { n_actions: self.n_actions, center, scale, target_of, places: self.places.clone() })
+        Arc::new(HopFeatures {
+            n_actions: self.n_actions,
+            center,
+            scale,
+            target_of: self.target_of.clone(),
+            places: self.places.clone(),
+        })
     }
 
     /// The arrows of the greedy policy `actions` from every state placed by ζ: bold where some

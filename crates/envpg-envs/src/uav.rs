@@ -297,6 +297,10 @@ impl ParamMdp for UavNetwork {
     fn step(&self, s: usize, a: usize, zeta: &[f64], rng: &mut EnvRng) -> (usize, f64) {
         self.hop.step(s, a, zeta, rng)
     }
+    /// The squared extent of users and destination.
+    fn cost_scale(&self) -> f64 {
+        self.instance.cost_scale()
+    }
     /// A uniformly drawn UAV: the relay states μ only reaches through the policy.
     fn sample_exploring_start(&self, rng: &mut EnvRng) -> usize {
         self.uav_state(rng.random_range(0..self.n_uav()))

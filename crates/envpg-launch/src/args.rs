@@ -29,11 +29,13 @@ pub struct TrainArgs {
     /// Run seed: network initialisation, ζ₀, every episode and minibatch stream.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Preset name in the preset file [default: the preset named like the environment (`uav`,
-    /// `aac`, `flpo`), or `uav` for an environment without one].
+    /// Preset of Algorithm 1 settings (see launch/presets.toml) [default: the preset named like
+    /// the environment (`uav`, `aac`), or `default` (the `uav` settings in the environment's
+    /// units) for one without].
     #[arg(long)]
     pub preset: Option<String>,
-    /// Preset file [default: the bundled launch/presets.toml].
+    /// Preset file, searched before the program's and envpg's bundled presets (a preset may
+    /// extend another with `base = "name"`).
     #[arg(long)]
     pub presets: Option<PathBuf>,
     /// Outer iterations k_max.
@@ -88,6 +90,10 @@ pub struct TrainArgs {
     /// Screening iterations per polish start.
     #[arg(long)]
     pub polish_screen: Option<usize>,
+    /// Significance (standard errors of paired differences) the polish asks of every sampled
+    /// improvement it accepts (0: any).
+    #[arg(long)]
+    pub polish_z: Option<f64>,
     /// σ at the last iteration as a fraction of --sigma (geometric over the ζ phase; 1 = constant).
     #[arg(long)]
     pub sigma_anneal: Option<f64>,
@@ -252,18 +258,13 @@ impl TrainArgs {
     /// The environment and the validated run specification.
     pub fn spec(&self, registry: &Registry) -> Result<(LoadedEnv, RunSpec)> {
         let env = registry.load(&self.instance, &env_overrides(&self.env_params, self.kappa, self.eta)?)?;
-        let mut c = match (&self.presets, &self.preset) {
-            (Some(p), Some(name)) => AcConfig::from_preset(p, name)?,
-            (Some(p), None) => AcConfig::from_preset_for(p, env.name)?,
-            (None, Some(name)) => AcConfig::bundled(name)?,
-            (None, None) => AcConfig::bundled_for(env.name)?,
-        };
+        let mut c = AcConfig::for_env(registry, self.presets.as_deref(), self.preset.as_deref(), env.name)?;
         macro_rules! set {
             ($($f:ident),*) => { $( if let Some(v) = self.$f.clone() { c.$f = v; } )* };
         }
         set!(iterations, episodes, explore_episodes, explore_eps, explore_start, episode_cap, sigma, hidden);
         set!(sigma_anneal, polish_iterations, polish_episodes, polish_h, polish_step);
-        set!(polish_policy_rounds, polish_policy_samples, polish_candidates, polish_spread, polish_screen);
+        set!(polish_policy_rounds, polish_policy_samples, polish_candidates, polish_spread, polish_screen, polish_z);
         set!(critic_lr, critic_steps, batch, polyak, actor_lr, actor_steps, warmup, zeta_lr, zeta_lr_decay);
         set!(zeta_clip, alpha0, alpha_decay, alpha_final, eval_every, relocate_every, relocate_below);
         set!(loop_tolerance, alpha_backoff, zeta_average);

@@ -83,7 +83,7 @@ fn raw(loaded: &LoadedEnv, spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
     let mut transitions = 0u64;
     for k in 0..spec.config.iterations as u64 {
         let mut table = learner.policy_table();
-        for ep in run_iteration(&env, &sets, &mut table, &zeta0, &spec.config, &streams, k) {
+        for ep in run_iteration(&env, &sets, &mut table, &zeta0, learner.config(), &streams, k) {
             transitions += ep.len() as u64;
         }
     }

@@ -42,6 +42,31 @@ fn smoke_run_writes_a_result_that_rescoring_confirms() {
 }
 
 #[test]
+fn every_built_in_environment_trains_and_its_result_rescores() {
+    let registry = envpg_envs::registry();
+    for (instance, extra) in
+        [("aac1800", vec!["--env-param", "temperature=0.01"]), ("flpo-n10m4", vec!["--kappa", "0.9"])]
+    {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("r.json");
+        let mut args = vec!["--in-process", "--preset", "smoke", "--instance", instance, "--quiet", "--out"];
+        args.push(out.to_str().unwrap());
+        args.extend(extra);
+        let o = launch(&args);
+        assert!(o.status.success(), "{instance}: {}", String::from_utf8_lossy(&o.stderr));
+        let r = envpg_core::ResultFile::load(&out).unwrap();
+        let env = r.load_env(&registry, &out).unwrap();
+        assert_eq!(r.env, env.name);
+        let model = env.model().unwrap();
+        let snap = envpg_model::Snapshot::build(model, &r.zeta);
+        let pi = envpg_core::policy::pairs_from_rows(model, &r.policy).unwrap();
+        let j = envpg_model::evaluate(&snap, &pi, 0.0).unwrap().j;
+        assert!((j - r.j.unwrap()).abs() < 1e-9 * j.max(1.0), "{instance}: {j} vs {:?}", r.j);
+        env.sampler().zeta_space().check(&r.zeta).expect("the design respects its bounds");
+    }
+}
+
+#[test]
 fn bad_settings_exit_with_code_2_and_name_the_setting() {
     let cases: &[(&[&str], &str)] = &[
         (&["--in-process", "--kappa", "0"], "kappa"),
@@ -50,6 +75,13 @@ fn bad_settings_exit_with_code_2_and_name_the_setting() {
         (&["--in-process", "--preset", "nope"], "no preset named"),
         (&["--in-process", "--zeta0", "1,2,3"], "zeta0"),
         (&["--in-process", "--no-such-flag"], "unexpected argument"),
+        (&["--in-process", "--instance", "aac1800", "--kappa", "0.9"], "has no parameter \"kappa\""),
+        (
+            &["--in-process", "--instance", "flpo-n10m4", "--zeta0", "2,0.5,0.5,0.5,0.5,0.5,0.5,0.5"],
+            "outside its bounds",
+        ),
+        (&["--in-process", "--instance", "aac1800", "--zeta0", "env"], "no initial design of its own"),
+        (&["--in-process", "--instance", "/no/such/instance.json"], "/no/such/instance.json"),
     ];
     for (args, needle) in cases {
         let o = launch(args);

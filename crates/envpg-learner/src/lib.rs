@@ -185,7 +185,7 @@ where
     let sizes = LinkSizes {
         max_workers: cfg.max_workers,
         n_params: learner.actor().n_params(),
-        episode_cap: spec.config.episode_cap,
+        episode_cap: learner.config().episode_cap,
         episodes_per_iteration: ids.len(),
     };
     let end = LearnerEnd::<S>::create(&cfg.run_id, sizes)?;
@@ -251,7 +251,7 @@ where
                     _ => stats.refused += 1,
                 }
             }
-            let cap = spec.config.episode_cap;
+            let cap = learner.config().episode_cap;
             end.receive_episodes(|h, recs| {
                 if h.protocol != PROTOCOL_VERSION || h.run_id != run_id {
                     stats.refused += 1;
@@ -327,7 +327,13 @@ where
     }
     end.announce(d, true)?;
     let details = serde_json::json!({ "mode": "workers", "link": stats });
-    Ok((rec.finish(&learner, "envpg-ac", details), stats))
+    // A collect-only run measures rollouts and transport: its result is not polished.
+    let result = if cfg.collect_only {
+        rec.finish_unpolished(&learner, "envpg-ac", details)
+    } else {
+        rec.finish(&learner, "envpg-ac", details)
+    };
+    Ok((result, stats))
 }
 
 /// Announces the end of the run when dropped.

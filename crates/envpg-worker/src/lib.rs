@@ -170,7 +170,8 @@ where
             net.zeta_dim()
         )));
     }
-    let ac = &spec.config;
+    // The settings in absolute units, as the learner resolves them.
+    let ac = &spec.config.resolve(net);
     let features = Features::new(net, cfg.env.env.feature_map(), ac.zeta_input);
     let mlp_spec = MlpSpec { onehot: features.onehot(), dense: features.dense_dim(), hidden: ac.hidden.clone() };
     // The shape only: parameters come from the learner.
@@ -245,7 +246,7 @@ where
                         &ro.sets,
                         &mut table,
                         zeta,
-                        &spec.config,
+                        ac,
                         &ro.streams,
                         kind_of(id),
                         h.k,

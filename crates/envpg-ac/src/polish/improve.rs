@@ -41,23 +41,26 @@ pub fn improve_policy<E: ParamMdp + Sync + ?Sized>(
     // One-step samples: per state and valid action, the cost sum and successor counts.
     let samples = on_two_threads(&states, |&st| {
         let mut steps = 0u64;
-        let per_action: Vec<(f64, Vec<(usize, u32)>)> = env
+        let per_action: Vec<OneStep> = env
             .valid_actions(st)
             .iter()
             .map(|&a| {
                 let mut rng = streams.stream(Purpose::Polish, POLICY_ONE_STEP + round, st as u64);
-                let mut cost = 0.0;
-                let mut next: Vec<(usize, u32)> = Vec::new();
+                let mut one = OneStep::default();
                 for _ in 0..r {
                     let (s2, c) = env.step(st, a, zeta, &mut rng);
-                    cost += c;
-                    match next.iter_mut().find(|x| x.0 == s2) {
-                        Some(x) => x.1 += 1,
-                        None => next.push((s2, 1)),
+                    one.cost += c;
+                    one.sq += c * c;
+                    match one.next.iter_mut().find(|x| x.0 == s2) {
+                        Some(x) => {
+                            x.1 += 1;
+                            x.2 += c;
+                        }
+                        None => one.next.push((s2, 1, c)),
                     }
                 }
                 steps += r as u64;
-                (cost, next)
+                one
             })
             .collect();
         (per_action, steps)
@@ -66,8 +69,8 @@ pub fn improve_policy<E: ParamMdp + Sync + ?Sized>(
     // V^π of every non-terminal successor, by rollouts under the current policy.
     let mut needed = vec![false; n];
     for (per_action, _) in &samples {
-        for (_, next) in per_action {
-            for &(s2, _) in next {
+        for one in per_action {
+            for &(s2, _, _) in &one.next {
                 needed[s2] = !env.is_terminal(s2);
             }
         }
@@ -100,17 +103,43 @@ pub fn improve_policy<E: ParamMdp + Sync + ?Sized>(
     let mut new_action = action.to_vec();
     let mut changed = 0;
     for (&st, (per_action, _)) in states.iter().zip(&samples) {
-        let q: Vec<f64> = per_action
-            .iter()
-            .map(|(cost, next)| (cost + gamma * next.iter().map(|&(s2, k)| k as f64 * v[s2]).sum::<f64>()) / r as f64)
-            .collect();
+        let q: Vec<(f64, f64)> = per_action.iter().map(|one| one.q(gamma, &v, r)).collect();
         let acts = env.valid_actions(st);
         let current = acts.iter().position(|&a| a == action[st]);
-        let best = (0..q.len()).min_by(|&i, &j| q[i].total_cmp(&q[j])).expect("a non-terminal state has actions");
-        if current.is_none_or(|c| q[best] < q[c]) {
+        let best = (0..q.len()).min_by(|&i, &j| q[i].0.total_cmp(&q[j].0)).expect("a non-terminal state has actions");
+        // Switch to the lowest sampled Q, by at least `z` standard errors when asked to.
+        let better = |c: usize| q[best].0 < q[c].0 - s.z * (q[best].1.powi(2) + q[c].1.powi(2)).sqrt();
+        if current.is_none_or(better) {
             new_action[st] = acts[best];
             changed += 1;
         }
     }
     PolicyProposal { action: new_action, changed, transitions }
+}
+
+/// The one-step samples of one (state, action): the sum of their costs and of their squares,
+/// and per successor the count and cost sum.
+#[derive(Debug, Default)]
+struct OneStep {
+    cost: f64,
+    sq: f64,
+    next: Vec<(usize, u32, f64)>,
+}
+
+impl OneStep {
+    /// The sampled Q = mean of c + γV(s') over the `r` samples, and its standard error (with
+    /// V held fixed).
+    fn q(&self, gamma: f64, v: &[f64], r: usize) -> (f64, f64) {
+        let rf = r as f64;
+        let q = (self.cost + gamma * self.next.iter().map(|&(s2, k, _)| k as f64 * v[s2]).sum::<f64>()) / rf;
+        // Σ (c + γV)² = Σ c² + 2γ Σ_s' V(s') Σ_{→s'} c + γ² Σ_s' n_s' V(s')².
+        let sq = self.sq
+            + self
+                .next
+                .iter()
+                .map(|&(s2, k, c)| 2.0 * gamma * v[s2] * c + gamma * gamma * k as f64 * v[s2] * v[s2])
+                .sum::<f64>();
+        let var = if r > 1 { ((sq - rf * q * q) / (rf - 1.0)).max(0.0) } else { 0.0 };
+        (q, (var / rf).sqrt())
+    }
 }

@@ -75,6 +75,10 @@ pub struct PolishSettings {
     pub candidate_spread: f64,
     /// Screening iterations per start before the best is kept.
     pub screen_iterations: usize,
+    /// Significance, in standard errors, that a ζ step, a new policy and a state's switch to
+    /// another action need (paired over common random numbers): 0 accepts any sampled
+    /// improvement.
+    pub z: f64,
 }
 
 /// What the polish did, recorded in the result file's `details.polish`.
@@ -281,7 +285,7 @@ fn polish_run<E: ParamMdp + Sync + ?Sized>(
                 // Kept only if this iteration's episodes cost less under it.
                 let j = sampled::sampled_costs_of(env, &[&action, &p.action], &z, s, streams, it);
                 report.transitions += j.iter().map(|x| x.steps).sum::<u64>();
-                if j[1].beats(&j[0]) {
+                if j[1].improves_on(&j[0], s.z) {
                     action = p.action;
                     report.policy_accepted += 1;
                     report.policy_changes += p.changed;
@@ -323,7 +327,7 @@ fn polish_run<E: ParamMdp + Sync + ?Sized>(
             space.project(&mut y);
             let jy = sampled::sampled_cost(env, action, &y, s, streams, it);
             report.transitions += jy.steps;
-            if jy.beats(&j[0]) {
+            if jy.improves_on(&j[0], s.z) {
                 z = y;
                 report.j_estimate_after = jy.cost;
                 report.accepted += 1;
@@ -397,6 +401,7 @@ mod tests {
             candidates: 1,
             candidate_spread: 0.0,
             screen_iterations: 0,
+            z: 0.0,
         }
     }
 
@@ -514,7 +519,7 @@ mod tests {
         assert!(l.loops() && !p.loops());
         assert!(p.beats(&l) && !l.beats(&p));
         // A proper policy's rare long episode is not a loop: then the cost decides.
-        let rare = Sampled { capped: 1, episodes: 8192, cost: p.cost - 1.0, ..p };
+        let rare = Sampled { capped: 1, episodes: 8192, cost: p.cost - 1.0, ..p.clone() };
         assert!(!rare.loops() && rare.beats(&p));
         let s = PolishSettings { candidates: 2, screen_iterations: 1, ..s };
         let (_, a, r) = polish_candidates(&net, &[(zeta.clone(), looping), (zeta, proper.clone())], &s, &streams);

@@ -1,6 +1,8 @@
 //! Sampled costs of a deterministic policy at a design, on common random numbers, and how the
-//! polish ranks them: a sample that loops (an SSP whose episodes run into the cap) loses to any
-//! that does not, since a loop between two close points runs up little cost before the cap.
+//! polish compares them: a sample that loops (an SSP whose episodes run into the cap) loses to
+//! any that does not, since a loop between two close points runs up little cost before the cap;
+//! otherwise the lower mean wins — by at least `z` standard errors of the paired per-episode
+//! differences when the polish asks for significance ([`PolishSettings::z`]).
 
 use envpg_core::{ParamMdp, Purpose, Streams};
 
@@ -17,15 +19,24 @@ pub(super) fn sampled_cost<E: ParamMdp + Sync + ?Sized>(
     it: u64,
 ) -> Sampled {
     let gamma = env.gamma();
-    let mut out = Sampled { cost: 0.0, capped: 0, steps: 0, episodes: s.episodes as u64, ssp: gamma == 1.0 };
+    let mut out = Sampled {
+        cost: 0.0,
+        capped: 0,
+        steps: 0,
+        episodes: s.episodes as u64,
+        ssp: gamma == 1.0,
+        per_episode: Vec::with_capacity(if s.z > 0.0 { s.episodes } else { 0 }),
+    };
     for e in 0..s.episodes as u64 {
         let mut rng = streams.stream(Purpose::Polish, it, e);
         let mut st = env.sample_initial(&mut rng);
         let mut done = false;
         let mut disc = 1.0;
+        let mut episode = 0.0;
         for _ in 0..s.episode_cap {
             let (s2, c) = env.step(st, action[st], zeta, &mut rng);
             out.cost += disc * c;
+            episode += disc * c;
             disc *= gamma;
             out.steps += 1;
             if env.is_terminal(s2) {
@@ -35,13 +46,16 @@ pub(super) fn sampled_cost<E: ParamMdp + Sync + ?Sized>(
             st = s2;
         }
         out.capped += u64::from(!done);
+        if s.z > 0.0 {
+            out.per_episode.push(episode);
+        }
     }
     out.cost /= s.episodes as f64;
     out
 }
 
 /// The sampled cost of one (design, policy) on a set of episodes.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub(super) struct Sampled {
     /// Mean episode cost (capped episodes count with the cost they ran up).
     pub(super) cost: f64,
@@ -54,6 +68,8 @@ pub(super) struct Sampled {
     /// Whether the environment is an SSP (γ = 1): only then does a capped episode mean a loop;
     /// with γ < 1 it is a truncation.
     pub(super) ssp: bool,
+    /// Each episode's cost (kept only when comparisons ask for significance).
+    pub(super) per_episode: Vec<f64>,
 }
 
 /// A sample loops when more than this fraction of its episodes hit the cap. A loop that even
@@ -77,6 +93,25 @@ impl Sampled {
     /// Whether this sample ranks before `other`.
     pub(super) fn beats(&self, other: &Sampled) -> bool {
         self.key().partial_cmp(&other.key()) == Some(std::cmp::Ordering::Less)
+    }
+
+    /// Whether this sample is better than `other`, drawn on the same episodes: it [`beats`] it,
+    /// and — for `z > 0` and two samples that both loop or both do not — its mean is lower by
+    /// at least `z` standard errors of the paired per-episode differences.
+    ///
+    /// [`beats`]: Sampled::beats
+    pub(super) fn improves_on(&self, other: &Sampled, z: f64) -> bool {
+        if !self.beats(other) {
+            return false;
+        }
+        let n = self.per_episode.len();
+        if z <= 0.0 || self.loops() != other.loops() || n < 2 || other.per_episode.len() != n {
+            return true;
+        }
+        let d: Vec<f64> = other.per_episode.iter().zip(&self.per_episode).map(|(a, b)| a - b).collect();
+        let mean = d.iter().sum::<f64>() / n as f64;
+        let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+        mean > z * (var / n as f64).sqrt()
     }
 }
 
