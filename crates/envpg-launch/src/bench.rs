@@ -121,6 +121,7 @@ fn worker_cfg(run_id: &str, env: &LoadedEnv, spec: &RunSpec, id: u32, cost_us: u
         join_timeout: Duration::from_secs(30),
         heartbeat: Duration::from_millis(200),
         emulator_cost_us: cost_us,
+        run_over: None,
     }
 }
 

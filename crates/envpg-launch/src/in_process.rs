@@ -1,6 +1,8 @@
 //! The in-process fallback: the same learner and worker shells as threads of this process,
 //! linked by iceoryx2's process-local service (no shared memory needed).
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use anyhow::Result;
@@ -33,6 +35,9 @@ pub fn run(
         stall_timeout: Duration::from_secs(60),
         collect_only: false,
     };
+    // Raised when the learner returns, so that a worker thread still joining (the others did
+    // all the work) leaves at once, and errors of the torn-down link are not reported.
+    let over = Arc::new(AtomicBool::new(false));
     std::thread::scope(|scope| {
         for i in 0..workers {
             let wcfg = WorkerConfig {
@@ -45,13 +50,19 @@ pub fn run(
                 join_timeout: Duration::from_secs(30),
                 heartbeat: Duration::from_millis((run.worker_timeout_ms / 5).clamp(10, 500)),
                 emulator_cost_us: run.emulator_cost_us,
+                run_over: Some(over.clone()),
             };
+            let over = over.clone();
             scope.spawn(move || {
-                if let Err(e) = run_worker::<local::Service>(&wcfg) {
+                if let Err(e) = run_worker::<local::Service>(&wcfg)
+                    && !over.load(Ordering::Acquire)
+                {
                     eprintln!("worker {i}: {e}");
                 }
             });
         }
-        run_learner::<local::Service>(&lcfg, progress).map_err(anyhow::Error::from)
+        let result = run_learner::<local::Service>(&lcfg, progress).map_err(anyhow::Error::from);
+        over.store(true, Ordering::Release);
+        result
     })
 }

@@ -68,6 +68,7 @@ pub fn worker(dir: &Path, worker_id: u32, incarnation: u64, protocol: u32, regis
         join_timeout: Duration::from_secs(30),
         heartbeat: Duration::from_millis((run.worker_timeout_ms / 5).clamp(10, 500)),
         emulator_cost_us: run.emulator_cost_us,
+        run_over: None,
     };
     match run_worker::<ipc::Service>(&cfg) {
         Ok(exit) => Ok(exit),

@@ -13,6 +13,8 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
+use iceoryx2::service::builder::event::EventOpenError;
+use iceoryx2::service::builder::publish_subscribe::PublishSubscribeOpenError;
 
 use crate::error::TransportError;
 
@@ -365,6 +367,19 @@ impl<S: Service> WorkerEnd<S> {
     /// protocol version (announcing `protocol` ourselves — normally [`PROTOCOL_VERSION`]), then
     /// opens the versioned services.
     pub fn open(run_id: &str, worker_id: u32, protocol: u32, timeout: Duration) -> Result<Self, TransportError> {
+        Self::open_while(run_id, worker_id, protocol, timeout, &|| true)
+    }
+
+    /// As [`WorkerEnd::open`], giving up with [`TransportError::RunOver`] as soon as
+    /// `keep_waiting` says no: a worker thread of an in-process run whose learner already
+    /// returned (the other workers did all the work) then leaves at once.
+    pub fn open_while(
+        run_id: &str,
+        worker_id: u32,
+        protocol: u32,
+        timeout: Duration,
+        keep_waiting: &dyn Fn() -> bool,
+    ) -> Result<Self, TransportError> {
         let node = node::<S>(&format!("envpg-worker{worker_id}-{run_id}"))?;
         let names = ServiceNames::new(run_id);
         let start = Instant::now();
@@ -372,13 +387,11 @@ impl<S: Service> WorkerEnd<S> {
         let run_info_service = loop {
             match node.service_builder(&service_name(&n)?).publish_subscribe::<RunInfo>().open() {
                 Ok(s) => break s,
+                Err(_) if !keep_waiting() => return Err(TransportError::RunOver { run_id: run_id.to_owned() }),
                 Err(e) if start.elapsed() < timeout => {
                     tracing::debug!("waiting for the learner's run info: {e:?}");
                     if node.wait(Duration::from_millis(20)).is_err() {
-                        return Err(TransportError::NoLearner {
-                            run_id: run_id.to_owned(),
-                            seconds: start.elapsed().as_secs_f64(),
-                        });
+                        return Err(TransportError::Interrupted { run_id: run_id.to_owned() });
                     }
                 }
                 Err(_) => {
@@ -397,12 +410,10 @@ impl<S: Service> WorkerEnd<S> {
         let info = loop {
             match run_info.receive() {
                 Ok(Some(s)) => break *s.payload(),
+                Ok(None) if !keep_waiting() => return Err(TransportError::RunOver { run_id: run_id.to_owned() }),
                 Ok(None) if start.elapsed() < timeout => {
                     if node.wait(Duration::from_millis(5)).is_err() {
-                        return Err(TransportError::NoLearner {
-                            run_id: run_id.to_owned(),
-                            seconds: start.elapsed().as_secs_f64(),
-                        });
+                        return Err(TransportError::Interrupted { run_id: run_id.to_owned() });
                     }
                 }
                 Ok(None) => {
@@ -414,12 +425,26 @@ impl<S: Service> WorkerEnd<S> {
                 Err(e) => return Err(TransportError::Receive { service: n, reason: format!("{e:?}") }),
             }
         };
+        if info.finished != 0 {
+            return Err(TransportError::RunOver { run_id: run_id.to_owned() });
+        }
+        // The learner announced the run, so its services exist unless it has ended since: a
+        // service gone now means the run is over (the other workers did the work), not a broken
+        // link.
+        let ps_err = |n: &str, e: PublishSubscribeOpenError| match e {
+            PublishSubscribeOpenError::DoesNotExist => TransportError::RunOver { run_id: run_id.to_owned() },
+            e => svc_err(n, e),
+        };
+        let ev_err = |n: &str, e: EventOpenError| match e {
+            EventOpenError::DoesNotExist => TransportError::RunOver { run_id: run_id.to_owned() },
+            e => svc_err(n, e),
+        };
         let n = names.hello();
         let hello = node
             .service_builder(&service_name(&n)?)
             .publish_subscribe::<Hello>()
             .open()
-            .map_err(|e| svc_err(&n, e))?
+            .map_err(|e| ps_err(&n, e))?
             .publisher_builder()
             .create()
             .map_err(|e| port_err("publisher", &n, e))?;
@@ -450,7 +475,7 @@ impl<S: Service> WorkerEnd<S> {
             .publish_subscribe::<[f32]>()
             .user_header::<WeightsHeader>()
             .open()
-            .map_err(|e| svc_err(&n, e))?
+            .map_err(|e| ps_err(&n, e))?
             .subscriber_builder()
             .history_request(1)
             .create()
@@ -461,7 +486,7 @@ impl<S: Service> WorkerEnd<S> {
             .publish_subscribe::<[EpisodeId]>()
             .user_header::<TaskHeader>()
             .open()
-            .map_err(|e| svc_err(&n, e))?
+            .map_err(|e| ps_err(&n, e))?
             .subscriber_builder()
             .create()
             .map_err(|e| port_err("subscriber", &n, e))?;
@@ -471,7 +496,7 @@ impl<S: Service> WorkerEnd<S> {
             .publish_subscribe::<[StepRecord]>()
             .user_header::<EpisodeHeader>()
             .open()
-            .map_err(|e| svc_err(&n, e))?
+            .map_err(|e| ps_err(&n, e))?
             .publisher_builder()
             .initial_max_slice_len((info.episode_cap as usize).max(1))
             .create()
@@ -481,7 +506,7 @@ impl<S: Service> WorkerEnd<S> {
             .service_builder(&service_name(&n)?)
             .event()
             .open()
-            .map_err(|e| svc_err(&n, e))?
+            .map_err(|e| ev_err(&n, e))?
             .notifier_builder()
             .create()
             .map_err(|e| port_err("notifier", &n, e))?;
@@ -490,7 +515,7 @@ impl<S: Service> WorkerEnd<S> {
             .service_builder(&service_name(&n)?)
             .event()
             .open()
-            .map_err(|e| svc_err(&n, e))?
+            .map_err(|e| ev_err(&n, e))?
             .listener_builder()
             .create()
             .map_err(|e| port_err("listener", &n, e))?;

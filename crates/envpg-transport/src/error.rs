@@ -64,6 +64,18 @@ pub enum TransportError {
         /// How long we waited.
         seconds: f64,
     },
+    /// SIGINT or SIGTERM while this worker was still joining.
+    #[error("interrupted while joining run {run_id}")]
+    Interrupted {
+        /// The run id.
+        run_id: String,
+    },
+    /// The run ended while this worker was still joining it.
+    #[error("run {run_id} ended before this worker joined")]
+    RunOver {
+        /// The run id.
+        run_id: String,
+    },
     /// The peer speaks another protocol version.
     #[error(
         "protocol mismatch: the learner of run {run_id} speaks protocol version {learner}, this worker speaks version {worker}"

@@ -14,6 +14,8 @@
 //! environment, not the learner, dominates.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use envpg_ac::features::Features;
@@ -49,6 +51,9 @@ pub struct WorkerConfig {
     pub heartbeat: Duration,
     /// Extra compute per environment step, in microseconds (benchmarks).
     pub emulator_cost_us: u64,
+    /// Set by an in-process run when its learner has returned: a worker thread still joining
+    /// then leaves with [`WorkerExit::RunOver`] instead of waiting out `join_timeout`.
+    pub run_over: Option<Arc<AtomicBool>>,
 }
 
 /// How a worker ended.
@@ -58,6 +63,8 @@ pub enum WorkerExit {
     Finished,
     /// SIGINT or SIGTERM.
     Terminated,
+    /// The run ended before this worker joined it ([`WorkerConfig::run_over`]).
+    RunOver,
 }
 
 /// Why a worker failed.
@@ -185,7 +192,15 @@ where
     };
     let d = ro.env.zeta_dim();
 
-    let end = WorkerEnd::<S>::open(&cfg.run_id, cfg.worker_id, cfg.protocol, cfg.join_timeout)?;
+    let over = || cfg.run_over.as_ref().is_some_and(|f| f.load(Ordering::Acquire));
+    let end = match WorkerEnd::<S>::open_while(&cfg.run_id, cfg.worker_id, cfg.protocol, cfg.join_timeout, &|| !over())
+    {
+        Err(TransportError::RunOver { .. }) => return Ok(WorkerExit::RunOver),
+        Err(TransportError::Interrupted { .. }) => return Ok(WorkerExit::Terminated),
+        // The learner tore its services down between our looks: the run is over, not broken.
+        Err(_) if over() => return Ok(WorkerExit::RunOver),
+        other => other?,
+    };
     end.say(hello_kind::JOIN, cfg.worker_id, cfg.incarnation)?;
     let waitset = WaitSetBuilder::new()
         .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
