@@ -5,9 +5,9 @@
 set -euo pipefail
 declare -A CH=(
   [no-polish]="--set polish_iterations=0"
-  [polish-frozen-routing]="--set polish_routing=0"
+  [polish-frozen-routing]="--set polish_policy_rounds=0"
   [polish-one-start]="--set polish_candidates=1"
-  [polish-as-before]="--set polish_routing=0 --set polish_candidates=1 --set polish_iterations=60"
+  [polish-as-before]="--set polish_policy_rounds=0 --set polish_candidates=1 --set polish_iterations=60"
   [sigma-0.3]="--set sigma=0.3"
   [actor-pg]="--set actor_update=pg"
   [estimator-sampled]="--set zeta_estimator=sampled"

@@ -440,6 +440,13 @@ impl AcConfig {
     /// `hidden` / `[64, 64]`, `zeta_estimator` / `baseline`), and validates the result.
     pub fn set(&self, key: &str, value: &str) -> Result<Self, ConfigError> {
         let field = |reason: String| ConfigError { field: "set", reason };
+        // The names the polish's policy rounds had before any environment could have a policy
+        // other than a routing (preset files read them through serde aliases).
+        let key = match key {
+            "polish_routing" => "polish_policy_rounds",
+            "polish_routing_samples" => "polish_policy_samples",
+            k => k,
+        };
         let mut table = toml::Table::try_from(self).map_err(|e| field(e.to_string()))?;
         if !table.contains_key(key) {
             let mut known: Vec<_> = table.keys().cloned().collect();
@@ -463,6 +470,71 @@ impl AcConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn scale_free_settings_are_multiplied_by_the_environments_units() {
+        // flpo: an SSP (γ = 1) whose design lives in the unit box.
+        let reg = envpg_envs::registry();
+        let env = reg.load("flpo-n10m4", &[]).unwrap();
+        let net = env.sampler();
+        let (c, l) = (net.cost_scale(), net.zeta_space().scale().iter().sum::<f64>() / net.zeta_dim() as f64);
+        assert!(c > 0.0 && l > 0.0);
+        let rel = AcConfig::bundled(crate::presets::DEFAULT_PRESET).unwrap();
+        assert!(rel.scale_free);
+        let abs = rel.resolve(net);
+        assert!(!abs.scale_free);
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs();
+        assert!(close(abs.alpha0, rel.alpha0 * c) && close(abs.alpha_final, rel.alpha_final * c));
+        assert!(close(abs.sigma, rel.sigma * l) && close(abs.polish_h, rel.polish_h * l));
+        assert!(close(abs.polish_step, rel.polish_step * l) && close(abs.polish_spread, rel.polish_spread * l));
+        // A ζ step is lr · clip at most: a length, L times the relative one.
+        assert!(close(abs.zeta_lr, rel.zeta_lr * l * l / c) && close(abs.zeta_clip, rel.zeta_clip * c / l));
+        assert!(close(abs.zeta_lr * abs.zeta_clip, rel.zeta_lr * rel.zeta_clip * l));
+        assert_eq!(abs.episode_cap, rel.episode_cap, "an SSP keeps its cap");
+        // Resolving is idempotent and leaves absolute settings alone.
+        assert_eq!(abs.resolve(net), abs);
+        assert_eq!(AcConfig::default().resolve(net), AcConfig::default());
+    }
+
+    #[test]
+    fn a_discounted_environment_gets_episodes_of_at_least_three_discount_horizons() {
+        let reg = envpg_envs::registry();
+        let env = reg.load("uav271", &[]).unwrap();
+        let rel = AcConfig { episode_cap: 5, ..AcConfig::bundled(crate::presets::DEFAULT_PRESET).unwrap() };
+        // uav271 is an SSP (γ = 1): the cap is the preset's.
+        assert_eq!(env.sampler().gamma(), 1.0);
+        assert_eq!(rel.resolve(env.sampler()).episode_cap, 5);
+        struct Discounted<'a>(&'a dyn envpg_core::ParamMdp);
+        impl envpg_core::ParamMdp for Discounted<'_> {
+            fn n_states(&self) -> usize {
+                self.0.n_states()
+            }
+            fn n_actions(&self) -> usize {
+                self.0.n_actions()
+            }
+            fn zeta_space(&self) -> &envpg_core::ZetaSpace {
+                self.0.zeta_space()
+            }
+            fn valid_actions(&self, s: usize) -> &[usize] {
+                self.0.valid_actions(s)
+            }
+            fn is_terminal(&self, s: usize) -> bool {
+                self.0.is_terminal(s)
+            }
+            fn gamma(&self) -> f64 {
+                0.95
+            }
+            fn sample_initial(&self, rng: &mut envpg_core::EnvRng) -> usize {
+                self.0.sample_initial(rng)
+            }
+            fn step(&self, s: usize, a: usize, z: &[f64], rng: &mut envpg_core::EnvRng) -> (usize, f64) {
+                self.0.step(s, a, z, rng)
+            }
+        }
+        // 3 / (1 − 0.95) = 60 stages carry all but e⁻³ of the discounted cost.
+        assert_eq!(rel.resolve(&Discounted(env.sampler())).episode_cap, 60);
+        assert_eq!(AcConfig { episode_cap: 80, ..rel }.resolve(&Discounted(env.sampler())).episode_cap, 80);
+    }
 
     #[test]
     fn defaults_are_valid_and_alpha_reaches_its_final_value() {
@@ -493,6 +565,7 @@ mod tests {
         assert_eq!(c.set("hidden", "[64, 32]").unwrap().hidden, [64, 32]);
         assert_eq!(c.set("zeta_estimator", "baseline").unwrap().zeta_estimator, ZetaEstimator::Baseline);
         assert_eq!(c.set("iterations", "7").unwrap().iterations, 7);
+        assert_eq!(c.set("polish_routing", "3").unwrap().polish_policy_rounds, 3);
         assert!(c.set("sigmaa", "1").unwrap_err().reason.contains("unknown setting \"sigmaa\""));
         assert_eq!(c.set("sigma", "-1").unwrap_err().field, "sigma");
         assert!(c.set("iterations", "many").is_err());

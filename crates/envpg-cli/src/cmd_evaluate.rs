@@ -30,6 +30,14 @@ pub fn run(a: EvaluateArgs, tools: &Tools) -> Result<()> {
     if a.results.is_empty() && a.zeta.is_none() {
         return input_err("give result files to re-score, or --zeta to score a design");
     }
+    let i = &a.instance;
+    if a.zeta.is_none() && (i.instance != "uav271" || !i.env_params.is_empty() || i.kappa.is_some() || i.eta.is_some())
+    {
+        return input_err(
+            "--instance, --env-param, --kappa and --eta choose the problem for --zeta; a result file is \
+             scored on the instance it carries",
+        );
+    }
     if let Some(z) = &a.zeta {
         let env = a.instance.load(&tools.registry)?;
         let model = env.model()?;

@@ -72,7 +72,7 @@ pub fn run(a: SweepArgs, tools: &Tools) -> Result<()> {
             Ok(row) => format!(
                 "[{n}/{total}] {} = {value}, seed {seed}: J = {}",
                 plan.param,
-                row.j.map_or("n/a".into(), |j| format!("{j:.4}"))
+                row.j.map_or("n/a".into(), envpg_report::stats::fixed)
             ),
             Err(e) => format!("[{n}/{total}] {} = {value}, seed {seed}: FAILED: {e}", plan.param),
         };

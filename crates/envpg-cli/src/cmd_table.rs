@@ -102,7 +102,7 @@ pub fn run(a: TableArgs, tools: &Tools) -> Result<()> {
 }
 
 fn fmt_j(j: Option<f64>) -> String {
-    j.map_or("n/a (improper policy)".into(), |j| format!("{j:.4}"))
+    j.map_or("n/a (improper policy)".into(), envpg_report::stats::fixed)
 }
 
 /// Prints a line above the bar (or plainly when the bar is hidden, e.g. with --quiet or when

@@ -202,10 +202,15 @@ pub fn split_values(text: &str) -> Vec<String> {
     out.into_iter().filter(|s| !s.is_empty()).collect()
 }
 
-/// The command line as typed, for reports.
+/// The command line as typed (the program by its file name: `envpg`, or a user's own tools
+/// binary), for reports.
 pub fn command_line() -> String {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    format!("Command: `envpg {}`", args.join(" "))
+    let mut args = std::env::args();
+    let program = args
+        .next()
+        .and_then(|p| std::path::Path::new(&p).file_name().map(|f| f.to_string_lossy().into_owned()))
+        .unwrap_or_else(|| "envpg".into());
+    format!("Command: `{program} {}`", args.collect::<Vec<_>>().join(" "))
 }
 
 /// One line about this machine, for reports.

@@ -135,6 +135,7 @@ fn bad_environment_input_exits_2_naming_the_culprit_and_writes_nothing() {
         (vec!["oracle", "--instance", "uav271", "--init", flpo.to_str().unwrap()], "flpo-n10m4"),
         (vec!["oracle", "--instance", "flpo-n10m4", "--init", "2,0.5,0.5,0.5,0.5,0.5,0.5,0.5"], "outside its bounds"),
         (vec!["evaluate", "--instance", "flpo-n10m4", "--zeta", "0.5,0.5"], "ζ has 2 entries"),
+        (vec!["evaluate", flpo.to_str().unwrap(), "--instance", "aac1800"], "scored on the instance it carries"),
         (vec!["table", "--instance", "aac1800", "--vary", "kappa=1,0.9"], "has no parameter \"kappa\""),
     ];
     for (mut args, needle) in cases {

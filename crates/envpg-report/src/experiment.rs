@@ -278,7 +278,8 @@ impl TablePlan {
     }
 
     /// Oracle settings of a job: same start = one warm restart from the seed's ζ₀ over
-    /// Algorithm 1's α range; best = the default restarts.
+    /// Algorithm 1's α range (in the column's units, when the settings are scale-free); best =
+    /// the default restarts.
     fn oracle_config(&self, env: &LoadedEnv, job: Job) -> Result<OracleConfig, String> {
         let model = env.model().map_err(|e| e.to_string())?;
         let mut cfg = OracleConfig::for_env(model);
@@ -291,8 +292,9 @@ impl TablePlan {
                 cfg.seed = seed;
                 cfg.strategy = Strategy::Warm;
                 cfg.init = Some(initial_design(env.sampler(), &self.config.zeta0, seed)?);
-                cfg.warm_alpha0 = self.config.alpha0;
-                cfg.alpha_min = self.config.alpha_final;
+                let abs = self.config.resolve(env.sampler());
+                cfg.warm_alpha0 = abs.alpha0;
+                cfg.alpha_min = abs.alpha_final;
             }
             Job::Best { .. } => {
                 cfg.restarts = self.restarts;
@@ -472,6 +474,11 @@ fn check_plan_file(plan: &TablePlan, dir: &Path) -> Result<(), ReportError> {
     write(path, text)
 }
 
+/// Settings and scales to three significant digits.
+fn fmt_num(x: f64) -> String {
+    crate::stats::sig(x, 3)
+}
+
 fn preamble(
     plan: &TablePlan,
     columns: &[TableColumn],
@@ -479,11 +486,22 @@ fn preamble(
     files: &[(Job, ResultFile)],
     wall: f64,
 ) -> Vec<String> {
-    let c = &plan.config;
     let compute: f64 = files.iter().filter_map(|(_, r)| r.seconds).sum();
     let seeds = plan.seeds.iter().map(u64::to_string).collect::<Vec<_>>().join(", ");
     let env = &columns[0].env;
     let s = env.sampler();
+    // Absolute values: scale-free settings in this instance's units.
+    let c = &plan.config.resolve(s);
+    let units = if plan.config.scale_free {
+        let l = s.zeta_space().scale().iter().sum::<f64>() / s.zeta_dim().max(1) as f64;
+        format!(
+            " (scale-free settings in this instance's units: cost C = {}, length L = {})",
+            fmt_num(s.cost_scale()),
+            fmt_num(l)
+        )
+    } else {
+        String::new()
+    };
     let mut lines = vec![
         format!(
             "Instance `{}` (environment `{}`: {} states, {} actions, ζ ∈ ℝ^{}), {}{}, seeds {seeds}.",
@@ -496,17 +514,17 @@ fn preamble(
             plan.vary.as_ref().map_or(String::new(), |v| format!(" except {} per column", v.key)),
         ),
         format!(
-            "Algorithm 1: {} iterations × {} episodes (+{} exploration), σ = {}, α {} → {}, estimator {:?}{}; {}.",
+            "Algorithm 1: {} iterations × {} episodes (+{} exploration), σ = {}, α {} → {}, estimator {:?}{}; {}{units}.",
             c.iterations,
             c.episodes,
             c.explore_episodes,
             if c.sigma_anneal == 1.0 {
-                c.sigma.to_string()
+                fmt_num(c.sigma)
             } else {
-                format!("{} → {}", c.sigma, c.sigma * c.sigma_anneal)
+                format!("{} → {}", fmt_num(c.sigma), fmt_num(c.sigma * c.sigma_anneal))
             },
-            c.alpha0,
-            c.alpha_final,
+            fmt_num(c.alpha0),
+            fmt_num(c.alpha_final),
             c.zeta_estimator,
             if c.polish_iterations > 0 {
                 format!(
@@ -516,7 +534,7 @@ fn preamble(
                     c.polish_episodes,
                     c.polish_policy_rounds,
                     c.polish_candidates,
-                    c.polish_spread,
+                    fmt_num(c.polish_spread),
                     c.polish_screen
                 )
             } else {
@@ -526,7 +544,10 @@ fn preamble(
         ),
         format!(
             "Oracle: same ζ₀ = one warm restart from each seed's ζ₀ over α {} → {}; best = {} restarts (seed {}).",
-            c.alpha0, c.alpha_final, plan.restarts, plan.oracle_seed
+            fmt_num(c.alpha0),
+            fmt_num(c.alpha_final),
+            plan.restarts,
+            plan.oracle_seed
         ),
         format!(
             "Run time: {:.0} s of runs, this invocation {:.0} s wall with {} parallel jobs.",
@@ -572,10 +593,10 @@ fn table_figures(
             best_at(col)
                 .map(|r| {
                     format!(
-                        "Oracle · {} · best of {} · J = {:.4}",
+                        "Oracle · {} · best of {} · J = {}",
                         columns[col].label,
                         plan.restarts,
-                        r.j.unwrap_or(f64::NAN)
+                        crate::stats::fixed(r.j.unwrap_or(f64::NAN))
                     )
                 })
                 .unwrap_or_default()

@@ -36,6 +36,36 @@ pub fn median_index(xs: &[f64]) -> Option<usize> {
     idx.get((xs.len().max(1) - 1) / 2).copied()
 }
 
+/// Decimals that show `x` to six significant digits (at least one): J of the UAV network
+/// (≈ 12) gets 4, a clustering distortion (≈ 0.14) 6.
+pub fn decimals(x: f64) -> usize {
+    if !x.is_finite() || x == 0.0 {
+        return 4;
+    }
+    (5 - x.abs().log10().floor() as i64).clamp(1, 15) as usize
+}
+
+/// `x` to six significant digits in fixed notation.
+pub fn fixed(x: f64) -> String {
+    format!("{x:.*}", decimals(x))
+}
+
+/// `mean ± std` of `xs`, both to the mean's [`decimals`].
+pub fn mean_std(xs: &[f64]) -> String {
+    let (m, d) = (mean(xs), std(xs));
+    format!("{m:.p$} ± {d:.p$}", p = decimals(m))
+}
+
+/// `x` to `digits` significant digits, trailing zeros dropped (for settings and scales).
+pub fn sig(x: f64, digits: usize) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let d = (digits as i64 - 1 - x.abs().log10().floor() as i64).max(0) as usize;
+    let s = format!("{x:.d$}");
+    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -53,5 +83,16 @@ mod tests {
         assert_eq!(std(&[5.0]), 0.0);
         assert_eq!(median_index(&[3.0, 1.0, 2.0]), Some(2));
         assert_eq!(median_index(&[4.0, 1.0, 3.0, 2.0]), Some(3));
+    }
+
+    #[test]
+    fn numbers_keep_six_significant_digits_whatever_their_magnitude() {
+        assert_eq!(fixed(12.490629536849628), "12.4906");
+        assert_eq!(fixed(0.06272790439817083), "0.0627279");
+        assert_eq!(fixed(0.144051309), "0.144051");
+        assert_eq!(fixed(153.6), "153.600");
+        assert_eq!(sig(0.0065 * 153.6, 3), "0.998");
+        assert_eq!(sig(6.2, 3), "6.2");
+        assert_eq!(sig(1e-5, 3), "0.00001");
     }
 }

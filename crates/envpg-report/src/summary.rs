@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 
 use envpg_core::ResultFile;
 
-use crate::stats::{mean, std};
+use crate::stats::{fixed, mean, mean_std};
 
 /// Which row of Table I a run belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -213,7 +213,7 @@ impl Summary {
         let cell = |v: &[Option<f64>]| {
             let ok: Vec<f64> = v.iter().flatten().copied().collect();
             let missing = v.len() - ok.len();
-            let mut c = if ok.is_empty() { "–".to_string() } else { format!("{:.4} ± {:.4}", mean(&ok), std(&ok)) };
+            let mut c = if ok.is_empty() { "–".to_string() } else { mean_std(&ok) };
             if missing > 0 {
                 let _ = write!(c, " ({missing} missing)");
             }
@@ -230,7 +230,7 @@ impl Summary {
         s += &row("Oracle, same ζ₀", cols.iter().map(|c| cell(&c.same_start)).collect(), String::new());
         s += &row(
             &format!("Oracle, best of {} restarts", self.restarts),
-            cols.iter().map(|c| c.best.map_or("–".into(), |b| format!("{b:.4}"))).collect(),
+            cols.iter().map(|c| c.best.map_or("–".into(), fixed)).collect(),
             String::new(),
         );
         let n_seeds = cols.iter().map(|c| c.polished.alg1.len()).sum::<usize>();

@@ -17,7 +17,7 @@ use envpg_ac::{AcConfig, ZetaEstimator};
 use envpg_core::{Registry, ResultFile};
 use serde_json::Value;
 
-use crate::stats::{mean, std};
+use crate::stats::{mean, mean_std};
 use crate::{Alg1Runner, ReportError, figures};
 
 /// A sweep.
@@ -334,10 +334,10 @@ pub fn markdown(plan: &SweepPlan, rows: &[SweepRow]) -> String {
         let improper = at.len() - js.len();
         let j = match (improper, js.is_empty()) {
             (0, true) => "–".into(),
-            (0, false) => format!("{:.3} ± {:.3}", mean(&js), std(&js)),
+            (0, false) => mean_std(&js),
             (n, true) => format!("∞ ({n} of {n} runs improper)"),
             (n, false) => {
-                format!("∞ ({n} of {} runs improper; others {:.3} ± {:.3})", at.len(), mean(&js), std(&js))
+                format!("∞ ({n} of {} runs improper; others {})", at.len(), mean_std(&js))
             }
         };
         let est = at.first().map_or("–", |r| kind_name(r.estimator));
@@ -413,7 +413,7 @@ mod tests {
             [row("0.1", 1, Some(10.0)), row("0.1", 2, None), row("0.3", 1, Some(10.0)), row("0.3", 2, Some(12.0))];
         let md = markdown(&plan, &rows);
         let line = |v: &str| md.lines().find(|l| l.starts_with(&format!("| {v} |"))).expect("row").to_owned();
-        assert!(line("0.1").contains("| ∞ (1 of 2 runs improper; others 10.000 ± 0.000) |"), "{md}");
-        assert!(line("0.3").contains("| 11.000 ± "), "{md}");
+        assert!(line("0.1").contains("| ∞ (1 of 2 runs improper; others 10.0000 ± 0.0000) |"), "{md}");
+        assert!(line("0.3").contains("| 11.0000 ± "), "{md}");
     }
 }

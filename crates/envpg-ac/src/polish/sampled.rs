@@ -139,3 +139,50 @@ pub(super) fn sampled_costs_of<E: ParamMdp + Sync + ?Sized>(
 ) -> Vec<Sampled> {
     on_two_threads(actions, |a| sampled_cost(env, a, zeta, s, streams, it))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(per_episode: &[f64], capped: u64, ssp: bool) -> Sampled {
+        let n = per_episode.len() as u64;
+        Sampled {
+            cost: per_episode.iter().sum::<f64>() / n as f64,
+            capped,
+            steps: n,
+            episodes: n,
+            ssp,
+            per_episode: per_episode.to_vec(),
+        }
+    }
+
+    #[test]
+    fn a_lower_mean_improves_only_by_z_standard_errors_of_the_paired_differences() {
+        let base = [10.0, 12.0, 9.0, 11.0, 10.5, 9.5];
+        // Lower by exactly 0.1 on every episode: paired differences have no spread at all.
+        let shifted: Vec<f64> = base.iter().map(|c| c - 0.1).collect();
+        let (a, b) = (sample(&shifted, 0, true), sample(&base, 0, true));
+        assert!(a.improves_on(&b, 3.0) && a.improves_on(&b, 100.0));
+        // Lower by 0.1 on average but ±1 episode to episode: mean 0.1, SE = 1/√6 · √(6/5).
+        let noisy: Vec<f64> =
+            base.iter().enumerate().map(|(i, c)| c - 0.1 + if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+        let a = sample(&noisy, 0, true);
+        let se = (6.0f64 / 5.0 / 6.0).sqrt();
+        assert!(a.beats(&b) && a.improves_on(&b, 0.0));
+        assert!(a.improves_on(&b, 0.99 * 0.1 / se) && !a.improves_on(&b, 1.01 * 0.1 / se));
+        // Higher is never an improvement.
+        assert!(!b.improves_on(&a, 0.0));
+    }
+
+    #[test]
+    fn a_sample_that_stops_looping_improves_whatever_its_spread() {
+        // Four of six episodes capped: an SSP policy that loops, cheap only because it was cut.
+        let looping = sample(&[1.0, 1.0, 1.0, 1.0, 30.0, 2.0], 4, true);
+        let proper = sample(&[20.0, 5.0, 9.0, 40.0, 8.0, 11.0], 0, true);
+        assert!(looping.loops() && !proper.loops());
+        assert!(proper.improves_on(&looping, 10.0) && !looping.improves_on(&proper, 0.0));
+        // With γ < 1 a capped episode is a truncation: the means decide.
+        let (a, b) = (sample(&[1.0, 1.0, 1.0, 1.0, 30.0, 2.0], 4, false), sample(&[20.0; 6], 0, false));
+        assert!(!a.loops() && a.improves_on(&b, 0.0) && !b.improves_on(&a, 0.0));
+    }
+}

@@ -152,7 +152,8 @@ where
 }
 
 /// Designs and policies: one panel per cell of a grid `cols` wide (None leaves a cell empty),
-/// each drawn from its environment's sketch. Writes `stem.svg` and `stem.png` in `dir`.
+/// each drawn from its environment's sketch. Writes `stem.svg` and `stem.png` in `dir` — or
+/// nothing when no result's environment draws a picture.
 pub fn designs(
     registry: &Registry,
     cells: &[Option<Panel>],
@@ -160,6 +161,9 @@ pub fn designs(
     dir: &Path,
     stem: &str,
 ) -> Result<Vec<PathBuf>, ReportError> {
+    if !cells.iter().flatten().any(|p| sketch_of(registry, p.result).is_some()) {
+        return Ok(Vec::new());
+    }
     save(&Designs { registry, cells, cols }, dir, stem)
 }
 
@@ -262,7 +266,7 @@ where
 
 /// ζ trajectories over training (○ ζ₀, ▲ the reported ζ, × the oracle design on the same
 /// instance when one of `designs` matches); one panel per run. Writes `stem.svg` and `stem.png`
-/// in `dir`.
+/// in `dir` — or nothing when no run's environment draws a picture.
 pub fn trajectories(
     registry: &Registry,
     panels: &[Panel],
@@ -270,5 +274,8 @@ pub fn trajectories(
     dir: &Path,
     stem: &str,
 ) -> Result<Vec<PathBuf>, ReportError> {
+    if !panels.iter().any(|p| sketch_of(registry, p.result).is_some()) {
+        return Ok(Vec::new());
+    }
     save(&Trajectories { registry, panels, designs }, dir, stem)
 }

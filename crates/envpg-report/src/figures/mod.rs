@@ -132,7 +132,7 @@ pub fn method_name(r: &ResultFile) -> &'static str {
 
 /// The standard title of a result: method, seed and J.
 pub fn title(r: &ResultFile) -> String {
-    let j = r.j.map_or("J n/a".to_string(), |j| format!("J = {j:.4}"));
+    let j = r.j.map_or("J n/a".to_string(), |j| format!("J = {}", crate::stats::fixed(j)));
     format!("{} · seed {} · {j}", method_name(r), r.seed)
 }
 
