@@ -136,3 +136,33 @@ fn a_payload_of_the_wrong_type_cannot_join_the_episode_service() {
     // The learner's side is unaffected.
     assert_eq!(learner.receive_episodes(|_, _| {}).unwrap(), 0);
 }
+
+#[test]
+fn a_worker_joining_a_run_that_is_over_leaves_at_once() {
+    // No learner at all: asked to stop waiting, the worker leaves at once instead of waiting
+    // out its join timeout (an in-process run whose learner already returned).
+    let start = Instant::now();
+    let r =
+        WorkerEnd::<local::Service>::open_while("linkover1", 0, PROTOCOL_VERSION, Duration::from_secs(30), &|| false);
+    assert!(matches!(r, Err(TransportError::RunOver { .. })), "{:?}", r.err());
+    assert!(start.elapsed() < Duration::from_secs(30));
+    // Without that, a missing learner is an error after the timeout.
+    let r = WorkerEnd::<local::Service>::open("linkover2", 0, PROTOCOL_VERSION, Duration::from_millis(50));
+    assert!(matches!(r, Err(TransportError::NoLearner { .. })), "{:?}", r.err());
+    // A learner that announced the end of its run: a late worker learns it from the run info.
+    let run_id = format!("linkover3{}", std::process::id());
+    let learner = LearnerEnd::<ipc::Service>::create(&run_id, sizes()).unwrap();
+    learner.announce(2, true).unwrap();
+    std::thread::scope(|scope| {
+        let w = scope.spawn(|| {
+            WorkerEnd::<ipc::Service>::open(&run_id, 0, PROTOCOL_VERSION, Duration::from_secs(5)).map(|_| ())
+        });
+        // The learner's loop delivers the run info's history to new subscribers.
+        while !w.is_finished() {
+            learner.refresh();
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        let r = w.join().unwrap();
+        assert!(matches!(r, Err(TransportError::RunOver { .. })), "{r:?}");
+    });
+}

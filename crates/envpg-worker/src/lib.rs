@@ -63,7 +63,8 @@ pub enum WorkerExit {
     Finished,
     /// SIGINT or SIGTERM.
     Terminated,
-    /// The run ended before this worker joined it ([`WorkerConfig::run_over`]).
+    /// The run ended before this worker joined it: its learner had announced the end or was
+    /// gone, or [`WorkerConfig::run_over`] was raised.
     RunOver,
 }
 
