@@ -4,11 +4,11 @@
 
 mod support;
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use envpg_ac::AcConfig;
 use envpg_ac::trainer::{RunSpec, train};
-use support::launch::{comparable, processes_with, run, signal, start, until, wait, with};
+use support::launch::{comparable, run, run_killing_worker_zero, with};
 
 /// A short smoke-preset run of `instance` (flpo at κ = 0.9, so hops can miss).
 fn short_run(instance: &str, iterations: usize) -> Vec<String> {
@@ -70,16 +70,7 @@ fn a_sigkilled_flpo_worker_changes_nothing() {
         base,
         &["--workers", "2", "--emulator-cost-us", "600", "--worker-timeout-ms", "400", "--run-dir", &rd, "--out", &o_s],
     );
-    let child = start(&args);
-    let workers = || processes_with(&["envpg-launch", "worker", "--run-dir", &rd, "--worker-id 0"]);
-    until("worker 0 to start", Duration::from_secs(30), || !workers().is_empty());
-    // A random moment within the run.
-    let nanos = Instant::now().elapsed().as_nanos() as u64 ^ u64::from(std::process::id());
-    std::thread::sleep(Duration::from_millis(200 + nanos % 1000));
-    let victims = workers();
-    assert_eq!(victims.len(), 1, "{victims:?}");
-    signal(victims[0].0, libc::SIGKILL);
-    let o = wait(child, Duration::from_secs(240));
+    let o = run_killing_worker_zero(&args, &run_dir, 1000, Duration::from_secs(240));
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
     assert!(stderr.contains("worker 0 exited (signal 9); starting a replacement"), "{stderr}");

@@ -4,11 +4,9 @@
 
 mod support;
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use support::launch::{
-    comparable, processes_with, run, signal, small_run, start, tiny_instance_file, until, wait, with,
-};
+use support::launch::{comparable, run, run_killing_worker_zero, small_run, tiny_instance_file, with};
 
 #[test]
 fn sigkilled_worker_changes_nothing() {
@@ -40,17 +38,7 @@ fn sigkilled_worker_changes_nothing() {
             &out.display().to_string(),
         ],
     );
-    let child = start(&args);
-    let dir_s = run_dir.display().to_string();
-    let workers = || processes_with(&["envpg-launch", "worker", "--run-dir", &dir_s, "--worker-id 0"]);
-    until("worker 0 to start", Duration::from_secs(30), || !workers().is_empty());
-    // A random moment within the run.
-    let nanos = Instant::now().elapsed().as_nanos() as u64 ^ u64::from(std::process::id());
-    std::thread::sleep(Duration::from_millis(200 + nanos % 1500));
-    let victims = workers();
-    assert_eq!(victims.len(), 1, "{victims:?}");
-    signal(victims[0].0, libc::SIGKILL);
-    let o = wait(child, Duration::from_secs(240));
+    let o = run_killing_worker_zero(&args, &run_dir, 1500, Duration::from_secs(240));
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
     assert!(stderr.contains("worker 0 exited (signal 9); starting a replacement"), "{stderr}");

@@ -72,6 +72,22 @@ pub fn until(what: &str, limit: Duration, mut f: impl FnMut() -> bool) {
     }
 }
 
+/// Starts `args` (a run with `--workers` and `--run-dir run_dir`), SIGKILLs worker 0 at a
+/// random moment 200 ms to 200 + `window_ms` ms after it started, and waits for the run under a
+/// watchdog of `limit`.
+pub fn run_killing_worker_zero(args: &[String], run_dir: &Path, window_ms: u64, limit: Duration) -> Output {
+    let child = start(args);
+    let dir = run_dir.display().to_string();
+    let workers = || processes_with(&["envpg-launch", "worker", "--run-dir", &dir, "--worker-id 0"]);
+    until("worker 0 to start", Duration::from_secs(30), || !workers().is_empty());
+    let nanos = Instant::now().elapsed().as_nanos() as u64 ^ u64::from(std::process::id());
+    std::thread::sleep(Duration::from_millis(200 + nanos % window_ms));
+    let victims = workers();
+    assert_eq!(victims.len(), 1, "{victims:?}");
+    signal(victims[0].0, libc::SIGKILL);
+    wait(child, limit)
+}
+
 /// Sends `sig` to `pid`.
 pub fn signal(pid: i32, sig: i32) {
     // SAFETY: kill(2) on a pid of our test's own processes.

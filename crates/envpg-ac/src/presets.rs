@@ -187,12 +187,8 @@ fn parse(text: &str, path: PathBuf) -> Result<(PathBuf, toml::Table), PresetErro
 }
 
 impl AcConfig {
-    /// Preset `name` from the file at `path` (whose `base` presets may also come from envpg's).
-    pub fn from_preset(path: &Path, name: &str) -> Result<Self, PresetError> {
-        Presets::bundled().with_file(path)?.get(name)
-    }
-
-    /// As [`AcConfig::from_preset`], from text read from `path`.
+    /// Preset `name` from `text`, read from `path` (its `base` presets may also come from
+    /// envpg's).
     pub fn from_preset_str(text: &str, path: &Path, name: &str) -> Result<Self, PresetError> {
         Presets::bundled().with_text(text, path)?.get(name)
     }
@@ -200,11 +196,6 @@ impl AcConfig {
     /// Preset `name` of envpg's bundled preset file.
     pub fn bundled(name: &str) -> Result<Self, PresetError> {
         Presets::bundled().get(name)
-    }
-
-    /// The bundled preset for environment `env`: the one named like it, or [`DEFAULT_PRESET`].
-    pub fn bundled_for(env: &str) -> Result<Self, PresetError> {
-        Presets::bundled().for_env(None, env)
     }
 
     /// The settings a program with `registry` uses for environment `env`: preset `name` (or the

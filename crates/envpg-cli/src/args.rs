@@ -83,19 +83,7 @@ pub struct InstanceArgs {
 impl InstanceArgs {
     /// The parameter overrides.
     pub fn overrides(&self) -> Result<Vec<(String, f64)>> {
-        let mut out = Vec::new();
-        for p in &self.env_params {
-            let Some((k, v)) = p.split_once('=') else {
-                return input_err(format!("--env-param {p:?}: expected KEY=VALUE"));
-            };
-            let Ok(x) = v.trim().parse::<f64>() else {
-                return input_err(format!("--env-param {p:?}: {:?} is not a number", v.trim()));
-            };
-            out.push((k.trim().to_owned(), x));
-        }
-        out.extend(self.kappa.map(|k| ("kappa".to_owned(), k)));
-        out.extend(self.eta.map(|e| ("eta".to_owned(), e)));
-        Ok(out)
+        envpg_core::instance::param_overrides(&self.env_params, self.kappa, self.eta).map_err(|e| InputError(e).into())
     }
 
     /// The environment of the instance.

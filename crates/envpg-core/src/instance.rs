@@ -256,6 +256,24 @@ impl InstanceFile {
     }
 }
 
+/// The parameter overrides of a command line: every `--env-param KEY=VALUE`, then the
+/// `--kappa`/`--eta` shorthands. An error names the malformed argument.
+pub fn param_overrides(params: &[String], kappa: Option<f64>, eta: Option<f64>) -> Result<Vec<(String, f64)>, String> {
+    let mut out = Vec::new();
+    for p in params {
+        let Some((k, v)) = p.split_once('=') else {
+            return Err(format!("--env-param {p:?}: expected KEY=VALUE"));
+        };
+        let Ok(x) = v.trim().parse::<f64>() else {
+            return Err(format!("--env-param {p:?}: {:?} is not a number", v.trim()));
+        };
+        out.push((k.trim().to_owned(), x));
+    }
+    out.extend(kappa.map(|k| ("kappa".to_owned(), k)));
+    out.extend(eta.map(|e| ("eta".to_owned(), e)));
+    Ok(out)
+}
+
 /// Reads 2-D points from a field: a list of `[x, y]` pairs of finite numbers, each named in
 /// errors (`users[3]`).
 pub fn points(file: &InstanceFile, key: &str) -> Result<Vec<[f64; 2]>, InstanceError> {

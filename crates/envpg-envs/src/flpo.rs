@@ -24,8 +24,8 @@ use std::sync::Arc;
 
 use envpg_core::instance::points;
 use envpg_core::{
-    DesignElement, Env, EnvRng, EnvSpec, FeatureMap, InstanceError, InstanceFile, ModelMdp, OracleHints, Outcomes,
-    ParamMdp, ParamSpec, Sketch, SketchLandmark, SketchMarker, SketchPoint, ZetaSpace,
+    DesignElement, Env, EnvRng, EnvSpec, FeatureMap, InstanceError, InstanceFile, ModelMdp, OracleHints, ParamMdp,
+    ParamSpec, Sketch, SketchLandmark, SketchMarker, SketchPoint, ZetaSpace,
 };
 use rand::RngExt;
 use serde::Deserialize;
@@ -232,23 +232,7 @@ impl ModelMdp for Flpo {
         let n = self.n_agents();
         (0..n).map(|i| (i, 1.0 / n as f64)).collect()
     }
-    fn outcomes(&self, s: usize, a: usize, zeta: &[f64], grad: bool, out: &mut Outcomes) {
-        self.hop.outcomes(s, a, zeta, grad, out)
-    }
-    fn state_outcomes(
-        &self,
-        s: usize,
-        zeta: &[f64],
-        next: &mut Vec<usize>,
-        prob: &mut Vec<f64>,
-        cost: &mut Vec<f64>,
-        ends: &mut Vec<usize>,
-    ) {
-        self.hop.state_outcomes(s, zeta, next, prob, cost, ends)
-    }
-    fn accumulate_state_grad(&self, s: usize, zeta: &[f64], prob: &[f64], cp: &[f64], cc: &[f64], grad: &mut [f64]) {
-        self.hop.accumulate_state_grad(s, zeta, prob, cp, cc, grad)
-    }
+    crate::hop::hop_model_paths!();
     /// Costs of the order of the squared extent of agents and destinations; M + 1 stages hold
     /// every simple route through the facilities.
     fn oracle_hints(&self) -> OracleHints {

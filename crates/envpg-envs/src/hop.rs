@@ -368,24 +368,29 @@ impl HopNetwork {
         })
     }
 
+    /// The hops `(s, t)` of the greedy route from `origin` under `actions` up to a terminal
+    /// state; a route that loops ends after one pass through every state.
+    fn greedy_route(&self, origin: usize, actions: &[usize]) -> Vec<(usize, usize)> {
+        let mut hops = Vec::new();
+        let mut s = origin;
+        for _ in 0..self.n_states() {
+            if self.is_terminal(s) {
+                break;
+            }
+            let t = self.target(s, actions[s]);
+            hops.push((s, t));
+            s = t;
+        }
+        hops
+    }
+
     /// The arrows of the greedy policy `actions` from every state placed by ζ: bold where some
-    /// route from an `origins` state passes (following the greedy hops, loop-free).
+    /// route from an `origins` state passes.
     pub fn policy_arrows(&self, zeta: &[f64], actions: &[usize], origins: &[usize]) -> Vec<SketchArrow> {
         let mut used = vec![false; self.n_states()];
         for &o in origins {
-            let mut s = o;
-            for _ in 0..self.n_states() {
-                if self.is_terminal(s) {
-                    break;
-                }
-                let t = self.target(s, actions[s]);
-                if self.zeta_index(s).is_some() {
-                    if used[s] {
-                        break;
-                    }
-                    used[s] = true;
-                }
-                s = t;
+            for (s, _) in self.greedy_route(o, actions) {
+                used[s] = true;
             }
         }
         (0..self.n_states())
@@ -401,22 +406,50 @@ impl HopNetwork {
     pub fn route_arrows(&self, zeta: &[f64], actions: &[usize], origins: &[usize]) -> Vec<SketchArrow> {
         let mut out: Vec<SketchArrow> = Vec::new();
         for &o in origins {
-            let mut s = o;
-            for _ in 0..self.n_states() {
-                if self.is_terminal(s) {
-                    break;
-                }
-                let t = self.target(s, actions[s]);
+            for (s, t) in self.greedy_route(o, actions) {
                 let arrow = SketchArrow { from: self.position(s, zeta), to: self.position(t, zeta), strong: true };
                 if !out.contains(&arrow) {
                     out.push(arrow);
                 }
-                s = t;
             }
         }
         out
     }
 }
+
+/// The three model paths of an environment that is a [`HopNetwork`] in its field `hop`
+/// (`outcomes`, `state_outcomes`, `accumulate_state_grad`), for use inside its
+/// `impl ModelMdp`: the UAV network and flpo share the kernel, so they share these too.
+macro_rules! hop_model_paths {
+    () => {
+        fn outcomes(&self, s: usize, a: usize, zeta: &[f64], grad: bool, out: &mut envpg_core::Outcomes) {
+            self.hop.outcomes(s, a, zeta, grad, out)
+        }
+        fn state_outcomes(
+            &self,
+            s: usize,
+            zeta: &[f64],
+            next: &mut Vec<usize>,
+            prob: &mut Vec<f64>,
+            cost: &mut Vec<f64>,
+            ends: &mut Vec<usize>,
+        ) {
+            self.hop.state_outcomes(s, zeta, next, prob, cost, ends)
+        }
+        fn accumulate_state_grad(
+            &self,
+            s: usize,
+            zeta: &[f64],
+            prob: &[f64],
+            cp: &[f64],
+            cc: &[f64],
+            grad: &mut [f64],
+        ) {
+            self.hop.accumulate_state_grad(s, zeta, prob, cp, cc, grad)
+        }
+    };
+}
+pub(crate) use hop_model_paths;
 
 /// The geometric features of a hop from `s` to the target `t` of action `a`:
 /// `[x̃_s, x̃_t, (x_t − x_s)/L, ‖x_t − x_s‖²/L²]` with `x̃ = (x − c)/L`, where `c` and `L` are

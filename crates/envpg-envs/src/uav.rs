@@ -17,8 +17,8 @@ use std::sync::Arc;
 
 use envpg_core::instance::points;
 use envpg_core::{
-    DesignElement, Env, EnvRng, EnvSpec, FeatureMap, InstanceError, InstanceFile, ModelMdp, OracleHints, Outcomes,
-    ParamMdp, ParamSpec, Sketch, SketchLandmark, SketchMarker, SketchPoint, ZetaSpace,
+    DesignElement, Env, EnvRng, EnvSpec, FeatureMap, InstanceError, InstanceFile, ModelMdp, OracleHints, ParamMdp,
+    ParamSpec, Sketch, SketchLandmark, SketchMarker, SketchPoint, ZetaSpace,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha12Rng;
@@ -328,23 +328,7 @@ impl ModelMdp for UavNetwork {
         let n = self.n_users();
         (0..n).map(|i| (i, 1.0 / n as f64)).collect()
     }
-    fn outcomes(&self, s: usize, a: usize, zeta: &[f64], grad: bool, out: &mut Outcomes) {
-        self.hop.outcomes(s, a, zeta, grad, out)
-    }
-    fn state_outcomes(
-        &self,
-        s: usize,
-        zeta: &[f64],
-        next: &mut Vec<usize>,
-        prob: &mut Vec<f64>,
-        cost: &mut Vec<f64>,
-        ends: &mut Vec<usize>,
-    ) {
-        self.hop.state_outcomes(s, zeta, next, prob, cost, ends)
-    }
-    fn accumulate_state_grad(&self, s: usize, zeta: &[f64], prob: &[f64], cp: &[f64], cc: &[f64], grad: &mut [f64]) {
-        self.hop.accumulate_state_grad(s, zeta, prob, cp, cc, grad)
-    }
+    crate::hop::hop_model_paths!();
     /// A hot start at 10× the squared extent of the instance, warm starts at 0.5, down to 10⁻³;
     /// M + 1 stages hold every simple route through the UAVs.
     fn oracle_hints(&self) -> OracleHints {
@@ -442,7 +426,7 @@ pub fn generate(spec: &GenerateSpec) -> Result<UavInstance, InstanceError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use envpg_core::{Purpose, Registry, Streams};
+    use envpg_core::{Outcomes, Purpose, Registry, Streams};
 
     fn small(kappa: f64) -> UavNetwork {
         let inst = UavInstance {

@@ -236,28 +236,12 @@ pub enum ZetaEstimatorArg {
     Corollary,
 }
 
-/// `KEY=VALUE` parameter overrides from `--env-param` and the `--kappa`/`--eta` shorthands.
-pub fn env_overrides(params: &[String], kappa: Option<f64>, eta: Option<f64>) -> Result<Vec<(String, f64)>> {
-    let mut out = Vec::new();
-    for p in params {
-        let Some((k, v)) = p.split_once('=') else {
-            bail!(crate::InputError(format!("--env-param {p:?}: expected KEY=VALUE")));
-        };
-        let x: f64 = v
-            .trim()
-            .parse()
-            .map_err(|_| crate::InputError(format!("--env-param {p:?}: {:?} is not a number", v.trim())))?;
-        out.push((k.trim().to_owned(), x));
-    }
-    out.extend(kappa.map(|k| ("kappa".to_owned(), k)));
-    out.extend(eta.map(|e| ("eta".to_owned(), e)));
-    Ok(out)
-}
-
 impl TrainArgs {
     /// The environment and the validated run specification.
     pub fn spec(&self, registry: &Registry) -> Result<(LoadedEnv, RunSpec)> {
-        let env = registry.load(&self.instance, &env_overrides(&self.env_params, self.kappa, self.eta)?)?;
+        let overrides =
+            envpg_core::instance::param_overrides(&self.env_params, self.kappa, self.eta).map_err(crate::InputError)?;
+        let env = registry.load(&self.instance, &overrides)?;
         let mut c = AcConfig::for_env(registry, self.presets.as_deref(), self.preset.as_deref(), env.name)?;
         macro_rules! set {
             ($($f:ident),*) => { $( if let Some(v) = self.$f.clone() { c.$f = v; } )* };
