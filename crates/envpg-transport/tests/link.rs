@@ -145,7 +145,6 @@ fn a_worker_joining_a_run_that_is_over_leaves_at_once() {
     let r =
         WorkerEnd::<local::Service>::open_while("linkover1", 0, PROTOCOL_VERSION, Duration::from_secs(30), &|| false);
     assert!(matches!(r, Err(TransportError::RunOver { .. })), "{:?}", r.err());
-    assert!(start.elapsed() < Duration::from_secs(30));
     // Without that, a missing learner is an error after the timeout.
     let r = WorkerEnd::<local::Service>::open("linkover2", 0, PROTOCOL_VERSION, Duration::from_millis(50));
     assert!(matches!(r, Err(TransportError::NoLearner { .. })), "{:?}", r.err());
