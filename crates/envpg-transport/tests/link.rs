@@ -140,8 +140,8 @@ fn a_payload_of_the_wrong_type_cannot_join_the_episode_service() {
 #[test]
 fn a_worker_joining_a_run_that_is_over_leaves_at_once() {
     // No learner at all: asked to stop waiting, the worker leaves at once instead of waiting
-    // out its join timeout (an in-process run whose learner already returned).
-    let start = Instant::now();
+    // out its join timeout (an in-process run whose learner already returned): the timeout
+    // would have been `NoLearner`.
     let r =
         WorkerEnd::<local::Service>::open_while("linkover1", 0, PROTOCOL_VERSION, Duration::from_secs(30), &|| false);
     assert!(matches!(r, Err(TransportError::RunOver { .. })), "{:?}", r.err());
