@@ -131,18 +131,12 @@ pub fn positive(name: &str, x: f64) -> Result<f64> {
     if x.is_finite() && x > 0.0 { Ok(x) } else { input_err(format!("{name} must be finite and > 0, got {x}")) }
 }
 
-/// Checks, before any work, that a result can be written at `path`: its directory exists (or
-/// can be created) and accepts a file. Failure is an input error.
+/// Checks, before any work, that a file can be written at `path` (an input error if not).
 pub fn check_writable(path: &std::path::Path) -> Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_owned(),
-        _ => std::path::PathBuf::from("."),
-    };
-    let probe = || -> std::io::Result<()> {
-        std::fs::create_dir_all(&dir)?;
-        let tmp = dir.join(format!(".envpg-write-check.{}", std::process::id()));
-        std::fs::write(&tmp, b"")?;
-        std::fs::remove_file(&tmp)
-    };
-    probe().map_err(|e| InputError(format!("cannot write {}: {e}", path.display())).into())
+    envpg_core::io::check_writable(path).map_err(|e| InputError(e.to_string()).into())
+}
+
+/// Checks, before any work, that files can be written into `dir` (an input error if not).
+pub fn check_dir_writable(dir: &std::path::Path) -> Result<()> {
+    envpg_core::io::check_dir_writable(dir).map_err(|e| InputError(e.to_string()).into())
 }

@@ -29,6 +29,7 @@ pub fn run(a: PlotArgs, tools: &Tools) -> Result<()> {
     if a.window == 0 {
         return input_err("--window must be at least 1");
     }
+    crate::args::check_dir_writable(&a.out)?;
     let results = a.results.iter().map(ResultFile::load).collect::<Result<Vec<_>, _>>()?;
     for (r, path) in results.iter().zip(&a.results) {
         r.load_env(&tools.registry, path)?;

@@ -48,6 +48,7 @@ pub struct SweepArgs {
 /// Runs the sweep.
 pub fn run(a: SweepArgs, tools: &Tools) -> Result<()> {
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(format!("results/sweep-{}", a.param)));
+    crate::args::check_dir_writable(&out)?;
     let env = a.instance.load(&tools.registry)?;
     let (runner, jobs) = a.runner.runner(&out, tools)?;
     let plan = SweepPlan {

@@ -57,6 +57,7 @@ pub struct TableArgs {
 
 /// Runs the table.
 pub fn run(a: TableArgs, tools: &Tools) -> Result<()> {
+    crate::args::check_dir_writable(&a.out)?;
     let env = a.instance.load(&tools.registry)?;
     let config = a.settings.config(&tools.registry, env.name)?;
     let (runner, jobs) = a.runner.runner(&a.out, tools)?;

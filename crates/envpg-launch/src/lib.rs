@@ -214,14 +214,7 @@ pub fn main(registry: Registry) -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            if e.chain().any(|c| {
-                c.is::<supervise::Interrupted>()
-                    || c.is::<multi_host::HostInterrupted>()
-                    || matches!(
-                        c.downcast_ref::<envpg_learner::LearnerError>(),
-                        Some(envpg_learner::LearnerError::Terminated(_))
-                    )
-            }) {
+            if is_interrupt(&e) {
                 return ExitCode::from(130);
             }
             let input = e.chain().any(|c| {
@@ -231,12 +224,48 @@ pub fn main(registry: Registry) -> ExitCode {
                     || c.is::<envpg_core::ZetaError>()
                     || c.is::<envpg_ac::config::ConfigError>()
                     || c.is::<envpg_ac::config::PresetError>()
+                    || c.is::<envpg_protocol::CheckpointError>()
                     || c.is::<multi_host::NotBuilt>()
                     || multi_host::is_input_error(c)
             });
             ExitCode::from(if input { 2 } else { 1 })
         }
     }
+}
+
+/// Whether `e` is an interrupted run (SIGINT/SIGTERM), exit code 130.
+fn is_interrupt(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.is::<supervise::Interrupted>()
+            || c.is::<multi_host::HostInterrupted>()
+            || matches!(
+                c.downcast_ref::<envpg_learner::LearnerError>(),
+                Some(envpg_learner::LearnerError::Terminated(_) | envpg_learner::LearnerError::Stopped(_))
+            )
+    })
+}
+
+/// An interrupted run says where it stands and how to continue it (on stderr, before the
+/// error itself).
+fn with_resume_hint(e: anyhow::Error, run: &RunFile, dir: &std::path::Path) -> anyhow::Error {
+    if !is_interrupt(&e) {
+        return e;
+    }
+    let exe = std::env::current_exe()
+        .ok()
+        .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .unwrap_or_else(|| "envpg-launch".into());
+    match run.load_checkpoint(dir) {
+        Ok(c) => eprintln!(
+            "kept: checkpoint at iteration {} of {} in {}\ncontinue the run with: {exe} --resume {}",
+            c.k,
+            run.spec.config.iterations,
+            RunFile::checkpoint_path(dir).display(),
+            dir.display()
+        ),
+        Err(c) => eprintln!("no checkpoint could be kept: {c}"),
+    }
+    e
 }
 
 fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
@@ -259,6 +288,9 @@ fn message(alpha: f64, j_h: f64, j: Option<f64>, tps: f64) -> String {
 
 fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Result<()> {
     if launch.bench {
+        if let Some(p) = &launch.bench_out {
+            envpg_core::io::check_writable(p).map_err(|e| InputError(format!("--bench-out: {e}")))?;
+        }
         let (env, spec) = train.spec(registry).map_err(|e| InputError(format!("{e:#}")))?;
         let dir = std::env::temp_dir().join(format!("envpg-bench-{}", run_dir::new_run_id()));
         std::fs::create_dir_all(&dir)?;
@@ -275,9 +307,20 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
     let (dir, run, resume) = match &launch.resume {
         Some(dir) => {
             let run = RunFile::load(dir).map_err(|e| InputError(format!("--resume {}: {e:#}", dir.display())))?;
+            envpg_core::io::check_writable(&run.out)
+                .map_err(|e| InputError(format!("--resume {}: the run's result file: {e}", dir.display())))?;
+            // A missing, corrupt or foreign checkpoint is found here, before any process starts.
+            run.load_checkpoint(dir).map_err(|e| InputError(format!("--resume {}: {e}", dir.display())))?;
             (dir.clone(), run, true)
         }
         None => {
+            // Outputs first: a run that cannot keep its result must not start.
+            envpg_core::io::check_writable(&launch.out).map_err(|e| InputError(format!("--out: {e}")))?;
+            if let Some(d) = &launch.run_dir {
+                envpg_core::io::create_private_dir(d)
+                    .and_then(|()| envpg_core::io::check_dir_writable(d))
+                    .map_err(|e| InputError(format!("--run-dir {}: {e}", d.display())))?;
+            }
             // Everything that goes wrong while turning arguments into a run is the user's input.
             let (_, spec) = train.spec(registry).map_err(|e| InputError(format!("{e:#}")))?;
             if launch.workers == 0 && (launch.in_process || launch.listen.is_none()) {
@@ -294,7 +337,8 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
             }
             let run_id = run_dir::new_run_id();
             let dir = launch.run_dir.clone().unwrap_or_else(|| std::env::temp_dir().join(format!("envpg-{run_id}")));
-            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+            // Owner only: the run directory holds the run's description and checkpoints.
+            envpg_core::io::create_private_dir(&dir).with_context(|| format!("creating {}", dir.display()))?;
             let out =
                 if launch.out.is_absolute() { launch.out.clone() } else { std::env::current_dir()?.join(&launch.out) };
             let run = RunFile {
@@ -313,52 +357,54 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
         }
     };
     let bar = progress_bar(run.spec.config.iterations as u64, launch.quiet);
-    let j = if launch.in_process {
-        let checkpoint = (run.checkpoint_every > 0).then(|| envpg_learner::CheckpointPolicy {
-            path: RunFile::checkpoint_path(&dir),
-            every: run.checkpoint_every,
-        });
-        let resume_from =
-            if resume { Some(envpg_protocol::Checkpoint::load(&RunFile::checkpoint_path(&dir))?) } else { None };
-        let env = run.spec.load(registry).map_err(|e| InputError(format!("{e:#}")))?;
-        let (result, _) = in_process::run(&run, &env, checkpoint, resume_from, |p| {
-            bar.set_position(p.k + 1);
-            bar.set_message(message(p.alpha, p.j_h_estimate, p.j_exact, p.transitions_per_s));
-            true
-        })?;
-        result.save(&run.out).with_context(|| format!("writing {}", run.out.display()))?;
-        result.j
-    } else {
-        let l = supervise::Launch {
-            dir: dir.clone(),
-            resume,
-            worker_protocol: launch.worker_protocol_version,
-            max_restarts: 20,
-        };
-        let outcome = supervise::supervise(&l, |v| {
-            let f = |k: &str| v.get(k).and_then(|x| x.as_f64());
-            if let Some(k) = v.get("k").and_then(|x| x.as_u64()) {
-                bar.set_position(k + 1);
-                bar.set_message(message(
-                    f("alpha").unwrap_or(0.0),
-                    f("j_h").unwrap_or(0.0),
-                    f("j"),
-                    f("tps").unwrap_or(0.0),
-                ));
+    let train = || -> Result<Option<f64>> {
+        Ok(if launch.in_process {
+            let checkpoint = Some(run.checkpoint_policy(&dir));
+            let resume_from = if resume { Some(run.load_checkpoint(&dir)?) } else { None };
+            let env = run.spec.load(registry).map_err(|e| InputError(format!("{e:#}")))?;
+            let (result, _) = in_process::run(&run, &env, checkpoint, resume_from, |p| {
+                bar.set_position(p.k + 1);
+                bar.set_message(message(p.alpha, p.j_h_estimate, p.j_exact, p.transitions_per_s));
+                true
+            })?;
+            run_dir::save_result(&result, &run.out, &dir)?;
+            result.j
+        } else {
+            let l = supervise::Launch {
+                dir: dir.clone(),
+                resume,
+                worker_protocol: launch.worker_protocol_version,
+                max_restarts: 20,
+            };
+            let outcome = supervise::supervise(&l, |v| {
+                let f = |k: &str| v.get(k).and_then(|x| x.as_f64());
+                if let Some(k) = v.get("k").and_then(|x| x.as_u64()) {
+                    bar.set_position(k + 1);
+                    bar.set_message(message(
+                        f("alpha").unwrap_or(0.0),
+                        f("j_h").unwrap_or(0.0),
+                        f("j"),
+                        f("tps").unwrap_or(0.0),
+                    ));
+                }
+            })?;
+            if let Some(bridge) = outcome.bridge {
+                // The learner wrote the result; add what crossed hosts, for the record.
+                let mut result = envpg_core::ResultFile::load(&run.out)
+                    .with_context(|| format!("reading {} to add the bridge's traffic", run.out.display()))?;
+                let details = result.details.get_or_insert_with(|| serde_json::json!({}));
+                if let Some(d) = details.as_object_mut() {
+                    d.insert("bridge".into(), bridge);
+                }
+                run_dir::save_result(&result, &run.out, &dir)?;
             }
-        })?;
-        if let Some(bridge) = outcome.bridge {
-            // The learner wrote the result; add what crossed hosts, for the record.
-            let mut result = envpg_core::ResultFile::load(&run.out)
-                .with_context(|| format!("reading {} to add the bridge's traffic", run.out.display()))?;
-            let details = result.details.get_or_insert_with(|| serde_json::json!({}));
-            if let Some(d) = details.as_object_mut() {
-                d.insert("bridge".into(), bridge);
-            }
-            result.save(&run.out).with_context(|| format!("writing {}", run.out.display()))?;
-        }
-        outcome.done.as_ref().and_then(|d| d.get("J")).and_then(|j| j.as_f64())
+            outcome.done.as_ref().and_then(|d| d.get("J")).and_then(|j| j.as_f64())
+        })
     };
+    let j = train().map_err(|e| {
+        bar.abandon();
+        with_resume_hint(e, &run, &dir)
+    })?;
     bar.finish_and_clear();
     if !launch.quiet {
         println!(

@@ -3,10 +3,9 @@
 use std::path::Path;
 use std::time::Duration;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use envpg_core::Registry;
-use envpg_learner::{CheckpointPolicy, LearnerConfig, run_learner};
-use envpg_protocol::Checkpoint;
+use envpg_learner::{LearnerConfig, run_learner};
 use envpg_transport::ipc;
 use envpg_worker::{WorkerConfig, WorkerExit, run_worker};
 
@@ -28,8 +27,7 @@ pub fn progress_line(p: &envpg_ac::trainer::Progress) -> String {
 pub fn learner(dir: &Path, resume: bool, registry: &Registry) -> Result<()> {
     let run = RunFile::load(dir)?;
     let env = run.spec.load(registry)?;
-    let cp_path = RunFile::checkpoint_path(dir);
-    let resume_from = if resume { Some(Checkpoint::load(&cp_path)?) } else { None };
+    let resume_from = if resume { Some(run.load_checkpoint(dir)?) } else { None };
     let cfg = LearnerConfig {
         run_id: run.run_id.clone(),
         spec: run.spec.clone(),
@@ -38,8 +36,7 @@ pub fn learner(dir: &Path, resume: bool, registry: &Registry) -> Result<()> {
         // queues tasks for) each of them.
         max_workers: run.workers.max(1) + 2 + if run.listen.is_some() { 64 } else { 0 },
         worker_timeout: Duration::from_millis(run.worker_timeout_ms),
-        checkpoint: (run.checkpoint_every > 0)
-            .then(|| CheckpointPolicy { path: cp_path.clone(), every: run.checkpoint_every }),
+        checkpoint: Some(run.checkpoint_policy(dir)),
         resume: resume_from,
         stall_timeout: Duration::from_secs(run.stall_timeout_s),
         collect_only: false,
@@ -48,7 +45,7 @@ pub fn learner(dir: &Path, resume: bool, registry: &Registry) -> Result<()> {
         println!("{}", progress_line(p));
         true
     })?;
-    result.save(&run.out).with_context(|| format!("writing {}", run.out.display()))?;
+    crate::run_dir::save_result(&result, &run.out, dir)?;
     println!("{}", serde_json::json!({ "done": true, "J": result.j, "link": stats }));
     Ok(())
 }

@@ -51,11 +51,50 @@ impl RunFile {
         let text = std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
         serde_json::from_str(&text).with_context(|| format!("parsing {}", p.display()))
     }
+    /// `DIR/result.json`: where a finished run's result goes when its `--out` cannot be
+    /// written any more.
+    pub fn fallback_result_path(dir: &Path) -> PathBuf {
+        dir.join("result.json")
+    }
+    /// The checkpoint policy of this run: every `checkpoint_every` iterations, and always when
+    /// stopped and at the end of training.
+    pub fn checkpoint_policy(&self, dir: &Path) -> envpg_learner::CheckpointPolicy {
+        envpg_learner::CheckpointPolicy { path: Self::checkpoint_path(dir), every: self.checkpoint_every }
+    }
+    /// Reads `DIR/checkpoint.bin` and checks that it belongs to this run (same run id, same
+    /// run description).
+    pub fn load_checkpoint(&self, dir: &Path) -> Result<envpg_protocol::Checkpoint, envpg_protocol::CheckpointError> {
+        let path = Self::checkpoint_path(dir);
+        let c = envpg_protocol::Checkpoint::load(&path)?;
+        let spec = serde_json::to_string(&self.spec).expect("a run description serialises");
+        c.check_for(&path, &self.run_id, &spec)?;
+        Ok(c)
+    }
     /// Writes `DIR/run.json` atomically.
     pub fn save(&self, dir: &Path) -> Result<()> {
         let p = Self::path(dir);
         let text = serde_json::to_string_pretty(self)?;
         envpg_core::io::write_atomic(&p, text.as_bytes()).with_context(|| format!("writing {}", p.display()))
+    }
+}
+
+/// Writes a finished run's result to `out`; if that fails (disk full, directory removed since
+/// the start), writes it into the run directory instead and fails naming both paths, so a
+/// finished run's result is never lost.
+pub fn save_result(result: &envpg_core::ResultFile, out: &Path, dir: &Path) -> Result<()> {
+    let Err(e) = result.save(out) else { return Ok(()) };
+    let fallback = RunFile::fallback_result_path(dir);
+    match result.save(&fallback) {
+        Ok(()) => anyhow::bail!(
+            "writing {} failed ({e}); the result was written to {} instead",
+            out.display(),
+            fallback.display()
+        ),
+        Err(e2) => anyhow::bail!(
+            "writing {} failed ({e}), and so did writing it to {} ({e2}); the result is lost",
+            out.display(),
+            fallback.display()
+        ),
     }
 }
 

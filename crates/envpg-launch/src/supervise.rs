@@ -235,9 +235,17 @@ pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Re
 
     let status = loop {
         if node.wait(Duration::from_millis(25)).is_err() {
-            let mut all = workers.running();
-            all.push(&mut learner);
-            stop_all(&mut all, Duration::from_secs(5));
+            // The learner checkpoints its last completed iteration on SIGTERM: tell it first,
+            // and give it time to finish writing (a further signal does not cut the write).
+            terminate(&learner);
+            stop_all(&mut workers.running(), Duration::from_secs(5));
+            stop_all(&mut [&mut learner], Duration::from_secs(120));
+            // A learner past training (in the ζ polish) finishes and writes its result instead.
+            if let Ok(Some(s)) = learner.try_wait()
+                && s.success()
+            {
+                break s;
+            }
             node.try_cleanup_dead_nodes();
             bail!(Interrupted);
         }

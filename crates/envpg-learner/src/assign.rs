@@ -25,12 +25,16 @@ pub struct Assignments {
     k: u64,
     slots: BTreeMap<u32, Slot>,
     queue: BTreeSet<EpisodeId>,
+    /// Every worker slot each episode of this iteration was handed to: only those may deliver
+    /// it (a late delivery from a worker presumed dead is still welcome, since episodes are
+    /// deterministic; a message claiming any other worker is refused).
+    handed: BTreeMap<EpisodeId, BTreeSet<u32>>,
 }
 
 impl Assignments {
     /// No workers yet; `timeout` of silence means dead.
     pub fn new(timeout: Duration) -> Self {
-        Self { timeout, k: 0, slots: BTreeMap::new(), queue: BTreeSet::new() }
+        Self { timeout, k: 0, slots: BTreeMap::new(), queue: BTreeSet::new(), handed: BTreeMap::new() }
     }
 
     /// Live workers.
@@ -42,6 +46,7 @@ impl Assignments {
     pub fn start_iteration(&mut self, k: u64, ids: &[EpisodeId]) {
         self.k = k;
         self.queue = ids.iter().copied().collect();
+        self.handed.clear();
         for s in self.slots.values_mut() {
             s.outstanding.clear();
         }
@@ -105,7 +110,12 @@ impl Assignments {
         dead.len() as u64
     }
 
-    /// An episode arrived (from whoever ran it).
+    /// Whether episode `id` of this iteration was ever handed to worker slot `worker`.
+    pub fn was_handed(&self, id: &EpisodeId, worker: u32) -> bool {
+        self.handed.get(id).is_some_and(|w| w.contains(&worker))
+    }
+
+    /// An episode arrived (from one of the workers it was handed to).
     pub fn completed(&mut self, id: &EpisodeId) {
         self.queue.remove(id);
         for s in self.slots.values_mut() {
@@ -126,6 +136,9 @@ impl Assignments {
         for (id, eps) in batches {
             let slot = self.slots.get_mut(&id).expect("live");
             end.assign(id, slot.incarnation, self.k, &eps)?;
+            for e in &eps {
+                self.handed.entry(*e).or_default().insert(id);
+            }
             slot.outstanding.extend(eps);
         }
         Ok(())

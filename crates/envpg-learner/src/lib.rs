@@ -13,7 +13,8 @@
 //! Faults: a worker that stops heartbeating (or is replaced: a new incarnation in its slot, or
 //! says goodbye) loses its unfinished episodes to the others; late or duplicate episodes are
 //! dropped, so nothing is lost or counted twice. Episodes from another run, iteration or
-//! protocol version, or of the wrong shape, are refused and counted.
+//! protocol version, of the wrong shape, or carrying states or actions out of range or
+//! non-finite costs ([`episode_from`]) are refused and counted.
 
 mod assign;
 
@@ -32,12 +33,14 @@ use iceoryx2::waitset::WaitSetRunResult;
 
 pub use assign::Assignments;
 
-/// Where and how often to checkpoint.
+/// Where and how often to checkpoint. Besides every `every` iterations, the learner always
+/// checkpoints when it is stopped (SIGINT/SIGTERM, or the progress callback) and once training
+/// ends, before the polish: an interrupted run resumes from its last completed iteration.
 #[derive(Debug, Clone)]
 pub struct CheckpointPolicy {
     /// The checkpoint file (written atomically).
     pub path: PathBuf,
-    /// Every this many iterations.
+    /// Every this many iterations (0: only when stopped and at the end of training).
     pub every: u64,
 }
 
@@ -76,7 +79,8 @@ pub struct LinkStats {
     pub duplicates: u64,
     /// Messages for another iteration dropped.
     pub stale: u64,
-    /// Messages refused (other run, version, shape).
+    /// Messages refused (other run, version, an episode not handed to the worker it claims,
+    /// shape, values out of range).
     pub refused: u64,
     /// Workers declared dead (timeout, replacement or goodbye with work outstanding).
     pub workers_lost: u64,
@@ -131,13 +135,44 @@ pub enum LearnerError {
     Stopped(u64),
 }
 
-/// Converts a received episode message to an [`Episode`], checking its shape.
-pub fn episode_from(h: &EpisodeHeader, recs: &[StepRecord], d: usize, cap: usize) -> Result<Episode, String> {
+/// What a well-formed episode message of this run looks like.
+#[derive(Debug, Clone, Copy)]
+pub struct EpisodeShape {
+    /// Dimension of ζ.
+    pub zeta_dim: usize,
+    /// Most records per episode.
+    pub cap: usize,
+    /// States are `0..n_states`.
+    pub n_states: usize,
+    /// Actions are `0..n_actions`.
+    pub n_actions: usize,
+}
+
+/// Converts a received episode message to an [`Episode`], checking everything it carries: its
+/// shape, every state and action in range, every cost and perturbed ζ finite. A malformed
+/// message (a broken or hostile peer) is refused whole, with the reason.
+pub fn episode_from(h: &EpisodeHeader, recs: &[StepRecord], shape: &EpisodeShape) -> Result<Episode, String> {
+    let (d, cap) = (shape.zeta_dim, shape.cap);
     if h.zeta_dim as usize != d {
         return Err(format!("ζ dimension {} instead of {d}", h.zeta_dim));
     }
     if recs.len() != h.len as usize || recs.len() > cap || recs.is_empty() {
         return Err(format!("{} records (header says {}, cap {cap})", recs.len(), h.len));
+    }
+    if h.capped > 1 {
+        return Err(format!("capped flag {}", h.capped));
+    }
+    for (t, r) in recs.iter().enumerate() {
+        let (s, a, s2) = (r.s as usize, r.a as usize, r.s2 as usize);
+        if s >= shape.n_states || s2 >= shape.n_states || a >= shape.n_actions {
+            return Err(format!(
+                "step {t}: (s, a, s') = ({s}, {a}, {s2}) outside {} states and {} actions",
+                shape.n_states, shape.n_actions
+            ));
+        }
+        if !r.cost.is_finite() || r.zeta[..d].iter().any(|z| !z.is_finite()) {
+            return Err(format!("step {t}: a cost or ζ coordinate is not finite"));
+        }
     }
     let mut ep =
         Episode { index: h.episode.index, explore: h.episode.kind != 0, capped: h.capped != 0, ..Default::default() };
@@ -221,6 +256,10 @@ where
                 .map_err(|e| LearnerError::Wait(format!("{e:?}")))?;
             if matches!(r, WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt) {
                 let _ = end.announce(d, true);
+                // The iteration in flight is dropped; the k completed ones are kept.
+                if let Some(cp) = &cfg.checkpoint {
+                    write_checkpoint(cp, &cfg.run_id, spec, &learner.state(), &rec)?;
+                }
                 return Err(LearnerError::Terminated(k));
             }
             end.drain_wakeups();
@@ -251,7 +290,12 @@ where
                     _ => stats.refused += 1,
                 }
             }
-            let cap = learner.config().episode_cap;
+            let shape = EpisodeShape {
+                zeta_dim: d,
+                cap: learner.config().episode_cap,
+                n_states: cfg.env.sampler().n_states(),
+                n_actions: cfg.env.sampler().n_actions(),
+            };
             end.receive_episodes(|h, recs| {
                 if h.protocol != PROTOCOL_VERSION || h.run_id != run_id {
                     stats.refused += 1;
@@ -261,7 +305,7 @@ where
                     stats.stale += 1;
                     return;
                 }
-                if !ids.contains(&h.episode) {
+                if !ids.contains(&h.episode) || !workers.was_handed(&h.episode, h.worker_id) {
                     stats.refused += 1;
                     return;
                 }
@@ -269,7 +313,7 @@ where
                     stats.duplicates += 1;
                     return;
                 };
-                match episode_from(h, recs, d, cap) {
+                match episode_from(h, recs, &shape) {
                     Ok(ep) => {
                         workers.completed(&h.episode);
                         stats.transitions += ep.len() as u64;
@@ -315,13 +359,16 @@ where
         let st = learner.update(&Batch { k, episodes }).map_err(TrainError::from)?;
         let p = rec.record(&zeta_k, &mut table, &st);
         if let Some(cp) = &cfg.checkpoint
-            && (learner.k() % cp.every == 0 || learner.k() as usize == spec.config.iterations)
+            && ((cp.every > 0 && learner.k() % cp.every == 0) || learner.k() as usize == spec.config.iterations)
         {
-            write_checkpoint(cp, spec, &learner.state(), &rec)?;
+            write_checkpoint(cp, &cfg.run_id, spec, &learner.state(), &rec)?;
         }
         if !progress(&p) {
             let _ = end.announce(d, true);
-            return Err(LearnerError::Stopped(k));
+            if let Some(cp) = &cfg.checkpoint {
+                write_checkpoint(cp, &cfg.run_id, spec, &learner.state(), &rec)?;
+            }
+            return Err(LearnerError::Stopped(learner.k()));
         }
         k = learner.k();
     }
@@ -350,12 +397,15 @@ impl<S: Service> Drop for Finish<'_, S> {
 
 fn write_checkpoint(
     cp: &CheckpointPolicy,
+    run_id: &str,
     spec: &RunSpec,
     st: &LearnerState,
     rec: &Recorder,
 ) -> Result<(), LearnerError> {
     let c = Checkpoint {
         protocol: PROTOCOL_VERSION,
+        run_id: run_id.to_owned(),
+        k: st.k,
         spec_json: serde_json::to_string(spec).map_err(|e| LearnerError::Checkpoint(e.to_string()))?,
         learner: postcard::to_stdvec(st).map_err(|e| LearnerError::Checkpoint(e.to_string()))?,
         history_json: serde_json::to_string(rec.history()).map_err(|e| LearnerError::Checkpoint(e.to_string()))?,
@@ -370,4 +420,60 @@ fn write_checkpoint(
 /// Reads the set of episode ids of an iteration (for tests and tools).
 pub fn iteration_ids(spec: &RunSpec) -> BTreeSet<EpisodeId> {
     episode_ids(&spec.config).map(|(kind, e)| episode_id(kind, e)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn message(n: usize) -> (EpisodeHeader, Vec<StepRecord>) {
+        let h = EpisodeHeader { len: n as u32, zeta_dim: 2, ..Default::default() };
+        let r = StepRecord { s: 1, a: 0, s2: 2, cost: 0.5, zeta: [0.25; envpg_protocol::MAX_ZETA] };
+        (h, vec![r; n])
+    }
+
+    const SHAPE: EpisodeShape = EpisodeShape { zeta_dim: 2, cap: 8, n_states: 3, n_actions: 2 };
+
+    #[test]
+    fn well_formed_episodes_are_accepted() {
+        let (h, recs) = message(4);
+        let ep = episode_from(&h, &recs, &SHAPE).unwrap();
+        assert_eq!((ep.len(), ep.zeta.len()), (4, 8));
+    }
+
+    #[test]
+    fn every_kind_of_malformed_episode_is_refused_with_its_reason() {
+        type Break = Box<dyn Fn(&mut EpisodeHeader, &mut Vec<StepRecord>)>;
+        let cases: Vec<(&str, Break)> = vec![
+            ("records", Box::new(|h, _| h.len = 5)),
+            (
+                "records",
+                Box::new(|h, r| {
+                    r.extend(r.clone().iter().cycle().take(6));
+                    h.len = r.len() as u32;
+                }),
+            ),
+            (
+                "records",
+                Box::new(|h, r| {
+                    r.clear();
+                    h.len = 0;
+                }),
+            ),
+            ("dimension", Box::new(|h, _| h.zeta_dim = 64)),
+            ("outside", Box::new(|_, r| r[2].s = 3)),
+            ("outside", Box::new(|_, r| r[0].s2 = u32::MAX)),
+            ("outside", Box::new(|_, r| r[3].a = 2)),
+            ("not finite", Box::new(|_, r| r[1].cost = f32::NAN)),
+            ("not finite", Box::new(|_, r| r[1].cost = f32::INFINITY)),
+            ("not finite", Box::new(|_, r| r[0].zeta[1] = f32::NEG_INFINITY)),
+            ("capped", Box::new(|h, _| h.capped = 7)),
+        ];
+        for (why, break_it) in cases {
+            let (mut h, mut recs) = message(4);
+            break_it(&mut h, &mut recs);
+            let e = episode_from(&h, &recs, &SHAPE).expect_err(why);
+            assert!(e.contains(why), "{why}: {e}");
+        }
+    }
 }

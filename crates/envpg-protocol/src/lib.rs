@@ -20,10 +20,13 @@
 //! else carries the version in its type name and service name: a peer of another version
 //! cannot even open those services. Every header repeats the version and the run id.
 //!
-//! [`Checkpoint`] is the learner's saved state (postcard, written atomically).
+//! [`Checkpoint`] is the learner's saved state: postcard inside a framed file (magic, format
+//! version, length, CRC-32), written atomically and checked against the run that resumes it.
 
+mod checkpoint;
+
+pub use checkpoint::{Checkpoint, CheckpointError};
 use iceoryx2::prelude::*;
-use serde::{Deserialize, Serialize};
 
 /// Version of this protocol. Bump on any change to a type below or to the run description
 /// peers exchange (version 2: the run names its environment and carries its instance).
@@ -265,79 +268,6 @@ impl ServiceNames {
     }
 }
 
-/// The learner's saved state, enough to continue a run bitwise identically.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Checkpoint {
-    /// [`PROTOCOL_VERSION`] of the writer.
-    pub protocol: u32,
-    /// The run specification, as JSON (canonical instance with its environment, seed, settings).
-    pub spec_json: String,
-    /// The learner's state, postcard-encoded (parameters, optimiser moments, ζ, α, k,
-    /// counters): binary so every float comes back bit for bit.
-    pub learner: Vec<u8>,
-    /// The recorder's history so far, as JSON.
-    pub history_json: String,
-    /// Transitions consumed so far.
-    pub transitions: u64,
-    /// Capped episodes so far.
-    pub capped: u64,
-    /// Wall-clock seconds spent before this checkpoint.
-    pub seconds: f64,
-}
-
-/// Why a checkpoint could not be read or written.
-#[derive(Debug, thiserror::Error)]
-pub enum CheckpointError {
-    /// File system error.
-    #[error("checkpoint {path}: {err}")]
-    Io {
-        /// The file.
-        path: std::path::PathBuf,
-        /// The error.
-        err: std::io::Error,
-    },
-    /// Not a checkpoint, or a corrupt one.
-    #[error("checkpoint {path} is not readable: {reason}")]
-    Format {
-        /// The file.
-        path: std::path::PathBuf,
-        /// What failed.
-        reason: String,
-    },
-    /// Written by another protocol version.
-    #[error("checkpoint {path} was written by protocol version {found}, this build speaks version {expected}")]
-    Version {
-        /// The file.
-        path: std::path::PathBuf,
-        /// Version in the file.
-        found: u32,
-        /// Our version.
-        expected: u32,
-    },
-}
-
-impl Checkpoint {
-    /// Serialises with postcard.
-    pub fn to_bytes(&self) -> Vec<u8> {
-        postcard::to_stdvec(self).expect("checkpoint serialises")
-    }
-
-    /// Reads a checkpoint file, checking its version.
-    pub fn load(path: &std::path::Path) -> Result<Self, CheckpointError> {
-        let bytes = std::fs::read(path).map_err(|err| CheckpointError::Io { path: path.to_owned(), err })?;
-        let c: Checkpoint = postcard::from_bytes(&bytes)
-            .map_err(|e| CheckpointError::Format { path: path.to_owned(), reason: e.to_string() })?;
-        if c.protocol != PROTOCOL_VERSION {
-            return Err(CheckpointError::Version {
-                path: path.to_owned(),
-                found: c.protocol,
-                expected: PROTOCOL_VERSION,
-            });
-        }
-        Ok(c)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -359,34 +289,5 @@ mod tests {
             assert_eq!(Hello::type_name(), "envpg.Hello");
             assert_eq!(StepRecord::type_name(), "envpg.v2.StepRecord");
         }
-    }
-
-    #[test]
-    fn checkpoints_round_trip_and_refuse_other_versions() {
-        let dir = std::env::temp_dir().join(format!("envpg-ckpt-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join("c.bin");
-        let c = Checkpoint {
-            protocol: PROTOCOL_VERSION,
-            spec_json: "{}".into(),
-            learner: vec![1, 2, 3],
-            history_json: "[]".into(),
-            transitions: 9,
-            capped: 1,
-            seconds: 0.5,
-        };
-        std::fs::write(&p, c.to_bytes()).unwrap();
-        assert_eq!(Checkpoint::load(&p).unwrap(), c);
-        let old = Checkpoint { protocol: PROTOCOL_VERSION + 1, ..c };
-        std::fs::write(&p, old.to_bytes()).unwrap();
-        let e = Checkpoint::load(&p).unwrap_err().to_string();
-        assert!(
-            e.contains(&format!("version {}", PROTOCOL_VERSION + 1))
-                && e.contains(&format!("version {PROTOCOL_VERSION}")),
-            "{e}"
-        );
-        std::fs::write(&p, b"garbage").unwrap();
-        assert!(matches!(Checkpoint::load(&p), Err(CheckpointError::Format { .. })));
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -203,8 +203,16 @@ where
         other => other?,
     };
     end.say(hello_kind::JOIN, cfg.worker_id, cfg.incarnation)?;
+    // iceoryx2 keeps one termination flag per process and the first WaitSet to look clears it:
+    // in an in-process run (`run_over` set) the learner thread must be the one to see SIGINT,
+    // so that it checkpoints; its end of the run then stops the worker threads.
+    let signals = if cfg.run_over.is_some() {
+        SignalHandlingMode::Disabled
+    } else {
+        SignalHandlingMode::HandleTerminationRequests
+    };
     let waitset = WaitSetBuilder::new()
-        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .signal_handling_mode(signals)
         .create::<S>()
         .map_err(|e| WorkerError::Wait(format!("{e:?}")))?;
     let _wake = waitset.attach_notification(end.listener()).map_err(|e| WorkerError::Wait(format!("{e:?}")))?;
