@@ -1,7 +1,8 @@
 //! Nothing computed is lost: an output that cannot be written is refused before training
-//! (exit 2), and SIGINT at a random moment checkpoints the last completed iteration, prints the
-//! command that continues the run, and `--resume DIR` ends bitwise identical to an
-//! uninterrupted run — with worker processes and in-process. A corrupt or foreign checkpoint is
+//! (exit 2), and SIGINT at a random moment (to the launcher, with worker processes and
+//! in-process) or SIGTERM to the learner process alone checkpoints the last completed iteration,
+//! prints the command that continues the run, and `--resume DIR` ends bitwise identical to an
+//! uninterrupted run. A corrupt or foreign checkpoint is
 //! refused with exit 2.
 
 mod support;
@@ -9,7 +10,9 @@ mod support;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use support::launch::{comparable, run, signal, small_run, start, tiny_instance_file, until, wait, with};
+use support::launch::{
+    comparable, processes_with, run, signal, small_run, start, tiny_instance_file, until, wait, with,
+};
 
 #[test]
 fn an_unwritable_output_is_refused_before_any_work() {
@@ -42,9 +45,19 @@ fn random_delay(lo: u64, hi: u64) -> Duration {
     Duration::from_millis(lo + r % (hi - lo))
 }
 
-fn interrupt_then_resume(mode: &[&str], dir: &Path, reference: &serde_json::Value, base: &[String]) {
-    let run_dir = dir.join(format!("run{}", mode.len()));
-    let out = dir.join(format!("out{}.json", mode.len()));
+/// Who gets the signal.
+#[derive(Debug, Clone, Copy)]
+enum Target {
+    /// SIGINT to `envpg-launch`.
+    Launcher,
+    /// SIGTERM to the learner process alone.
+    Learner,
+}
+
+fn interrupt_then_resume(mode: &[&str], target: Target, dir: &Path, reference: &serde_json::Value, base: &[String]) {
+    let tag = format!("{}-{target:?}", mode.len());
+    let run_dir = dir.join(format!("run{tag}"));
+    let out = dir.join(format!("out{tag}.json"));
     let run_dir_s = run_dir.display().to_string();
     let mut extra = vec!["--run-dir", &run_dir_s];
     let out_s = out.display().to_string();
@@ -53,11 +66,18 @@ fn interrupt_then_resume(mode: &[&str], dir: &Path, reference: &serde_json::Valu
     let child = start(&with(base.to_vec(), &extra));
     until("the run to start", Duration::from_secs(60), || run_dir.join("run.json").exists());
     std::thread::sleep(random_delay(300, 1500));
-    signal(child.id() as i32, libc::SIGINT);
+    match target {
+        Target::Launcher => signal(child.id() as i32, libc::SIGINT),
+        Target::Learner => {
+            let learners = processes_with(&["learner --run-dir", &run_dir_s]);
+            assert_eq!(learners.len(), 1, "{learners:?}");
+            signal(learners[0].0, libc::SIGTERM);
+        }
+    }
     let o = wait(child, Duration::from_secs(120));
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     assert_eq!(o.status.code(), Some(130), "{err}");
-    eprintln!("{mode:?}: {}", err.lines().find(|l| l.starts_with("kept:")).unwrap_or("no checkpoint line"));
+    eprintln!("{mode:?} {target:?}: {}", err.lines().find(|l| l.starts_with("kept:")).unwrap_or("no checkpoint line"));
     assert!(err.contains(&format!("--resume {run_dir_s}")), "the resume command is printed: {err}");
     assert!(!out.exists(), "no result from an interrupted run");
     let o = run(&["--resume".into(), run_dir_s.clone(), "--quiet".into()], Duration::from_secs(120));
@@ -93,8 +113,9 @@ fn sigint_checkpoints_and_resume_ends_with_the_uninterrupted_result() {
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let reference = comparable(&reference);
-    interrupt_then_resume(&["--workers", "2"], dir.path(), &reference, &base);
-    interrupt_then_resume(&["--workers", "2", "--in-process"], dir.path(), &reference, &base);
+    interrupt_then_resume(&["--workers", "2"], Target::Launcher, dir.path(), &reference, &base);
+    interrupt_then_resume(&["--workers", "2", "--in-process"], Target::Launcher, dir.path(), &reference, &base);
+    interrupt_then_resume(&["--workers", "2"], Target::Learner, dir.path(), &reference, &base);
 }
 
 #[test]

@@ -291,6 +291,10 @@ pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Re
         out.bridge = Some(b.finish()?);
     }
     node.try_cleanup_dead_nodes();
+    if status.code() == Some(130) {
+        // The learner alone was signalled: it checkpointed and stopped.
+        bail!(Interrupted);
+    }
     if !status.success() {
         bail!("the learner failed ({})", describe(&status));
     }
