@@ -314,15 +314,15 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
             (dir.clone(), run, true)
         }
         None => {
-            // Outputs first: a run that cannot keep its result must not start.
+            // Everything that goes wrong while turning arguments into a run is the user's input.
+            let (_, spec) = train.spec(registry).map_err(|e| InputError(format!("{e:#}")))?;
+            // Outputs next, before any work: a run that cannot keep its result must not start.
             envpg_core::io::check_writable(&launch.out).map_err(|e| InputError(format!("--out: {e}")))?;
             if let Some(d) = &launch.run_dir {
                 envpg_core::io::create_private_dir(d)
                     .and_then(|()| envpg_core::io::check_dir_writable(d))
                     .map_err(|e| InputError(format!("--run-dir {}: {e}", d.display())))?;
             }
-            // Everything that goes wrong while turning arguments into a run is the user's input.
-            let (_, spec) = train.spec(registry).map_err(|e| InputError(format!("{e:#}")))?;
             if launch.workers == 0 && (launch.in_process || launch.listen.is_none()) {
                 return Err(InputError("--workers must be at least 1 (0 only with --listen)".into()).into());
             }
