@@ -310,8 +310,9 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
             envpg_core::io::check_writable(&run.out)
                 .map_err(|e| InputError(format!("--resume {}: the run's result file: {e}", dir.display())))?;
             // A missing, corrupt or foreign checkpoint is found here, before any process starts.
-            run.load_checkpoint(dir).map_err(|e| InputError(format!("--resume {}: {e}", dir.display())))?;
-            (dir.clone(), run, true)
+            let checkpoint =
+                run.load_checkpoint(dir).map_err(|e| InputError(format!("--resume {}: {e}", dir.display())))?;
+            (dir.clone(), run, Some(checkpoint))
         }
         None => {
             // Everything that goes wrong while turning arguments into a run is the user's input.
@@ -353,16 +354,15 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
                 listen: launch.listen.clone(),
             };
             run.save(&dir)?;
-            (dir, run, false)
+            (dir, run, None)
         }
     };
     let bar = progress_bar(run.spec.config.iterations as u64, launch.quiet);
     let train = || -> Result<Option<f64>> {
         Ok(if launch.in_process {
             let checkpoint = Some(run.checkpoint_policy(&dir));
-            let resume_from = if resume { Some(run.load_checkpoint(&dir)?) } else { None };
             let env = run.spec.load(registry).map_err(|e| InputError(format!("{e:#}")))?;
-            let (result, _) = in_process::run(&run, &env, checkpoint, resume_from, |p| {
+            let (result, _) = in_process::run(&run, &env, checkpoint, resume.clone(), |p| {
                 bar.set_position(p.k + 1);
                 bar.set_message(message(p.alpha, p.j_h_estimate, p.j_exact, p.transitions_per_s));
                 true
@@ -372,7 +372,8 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
         } else {
             let l = supervise::Launch {
                 dir: dir.clone(),
-                resume,
+                // The learner process reads (and checks) the checkpoint again itself.
+                resume: resume.is_some(),
                 worker_protocol: launch.worker_protocol_version,
                 max_restarts: 20,
             };

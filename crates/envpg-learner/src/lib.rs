@@ -238,6 +238,12 @@ where
     let _tick = waitset.attach_interval(tick).map_err(|e| LearnerError::Wait(format!("{e:?}")))?;
 
     let run_id = run_id_bytes(&cfg.run_id);
+    let shape = EpisodeShape {
+        zeta_dim: d,
+        cap: learner.config().episode_cap,
+        n_states: cfg.env.sampler().n_states(),
+        n_actions: cfg.env.sampler().n_actions(),
+    };
     let mut stats = LinkStats::default();
     let mut workers = Assignments::new(cfg.worker_timeout);
     let mut last_refusal: Option<(u32, u32, Instant)> = None;
@@ -257,9 +263,7 @@ where
             if matches!(r, WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt) {
                 let _ = end.announce(d, true);
                 // The iteration in flight is dropped; the k completed ones are kept.
-                if let Some(cp) = &cfg.checkpoint {
-                    write_checkpoint(cp, &cfg.run_id, spec, &learner.state(), &rec)?;
-                }
+                write_checkpoint(cfg, &learner.state(), &rec)?;
                 return Err(LearnerError::Terminated(k));
             }
             end.drain_wakeups();
@@ -290,12 +294,6 @@ where
                     _ => stats.refused += 1,
                 }
             }
-            let shape = EpisodeShape {
-                zeta_dim: d,
-                cap: learner.config().episode_cap,
-                n_states: cfg.env.sampler().n_states(),
-                n_actions: cfg.env.sampler().n_actions(),
-            };
             end.receive_episodes(|h, recs| {
                 if h.protocol != PROTOCOL_VERSION || h.run_id != run_id {
                     stats.refused += 1;
@@ -358,16 +356,13 @@ where
         let episodes: Vec<Episode> = done.into_values().collect();
         let st = learner.update(&Batch { k, episodes }).map_err(TrainError::from)?;
         let p = rec.record(&zeta_k, &mut table, &st);
-        if let Some(cp) = &cfg.checkpoint
-            && ((cp.every > 0 && learner.k() % cp.every == 0) || learner.k() as usize == spec.config.iterations)
-        {
-            write_checkpoint(cp, &cfg.run_id, spec, &learner.state(), &rec)?;
+        let every = cfg.checkpoint.as_ref().map_or(0, |cp| cp.every);
+        if (every > 0 && learner.k() % every == 0) || learner.k() as usize == spec.config.iterations {
+            write_checkpoint(cfg, &learner.state(), &rec)?;
         }
         if !progress(&p) {
             let _ = end.announce(d, true);
-            if let Some(cp) = &cfg.checkpoint {
-                write_checkpoint(cp, &cfg.run_id, spec, &learner.state(), &rec)?;
-            }
+            write_checkpoint(cfg, &learner.state(), &rec)?;
             return Err(LearnerError::Stopped(learner.k()));
         }
         k = learner.k();
@@ -395,16 +390,13 @@ impl<S: Service> Drop for Finish<'_, S> {
     }
 }
 
-fn write_checkpoint(
-    cp: &CheckpointPolicy,
-    run_id: &str,
-    spec: &RunSpec,
-    st: &LearnerState,
-    rec: &Recorder,
-) -> Result<(), LearnerError> {
+/// Writes the checkpoint of `cfg`, if it has one.
+fn write_checkpoint(cfg: &LearnerConfig, st: &LearnerState, rec: &Recorder) -> Result<(), LearnerError> {
+    let Some(cp) = &cfg.checkpoint else { return Ok(()) };
+    let spec = &cfg.spec;
     let c = Checkpoint {
         protocol: PROTOCOL_VERSION,
-        run_id: run_id.to_owned(),
+        run_id: cfg.run_id.clone(),
         k: st.k,
         spec_json: serde_json::to_string(spec).map_err(|e| LearnerError::Checkpoint(e.to_string()))?,
         learner: postcard::to_stdvec(st).map_err(|e| LearnerError::Checkpoint(e.to_string()))?,
