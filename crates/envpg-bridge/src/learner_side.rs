@@ -6,7 +6,7 @@
 //! answers join requests (handing each host a distinct worker-id base) and "latest" requests
 //! of hosts resyncing after a link loss.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -21,8 +21,8 @@ use zenoh::query::Queryable;
 use crate::BridgeError;
 use crate::session::{Inbox, err, open, routes};
 use crate::wire::{
-    Down, HelloMsg, Info, JOIN_KEY, JoinReply, JoinRequest, Tasks, Up, Weights, decode, down_key, encode, latest_key,
-    peek_version, up_key,
+    Down, EpisodeMsg, HelloMsg, Info, JOIN_KEY, JoinReply, JoinRequest, Tasks, Up, Weights, decode, down_key, encode,
+    latest_key, peek_version, up_key,
 };
 
 /// Worker id of the proxy itself (it never joins, so the learner never assigns it work).
@@ -30,6 +30,11 @@ const PROXY_ID: u32 = u32::MAX - 1;
 
 /// How often the bridge checks, when idle, that its routes to remote hosts still exist.
 const ROUTE_CHECK: Duration = Duration::from_secs(1);
+
+/// Copies of one handed episode the bridge relays: the worker's own, and a few more, so that
+/// a copy forged by another host (which the learner refuses on its contents) cannot shut the
+/// real one out, while a flood stays bounded by the iteration's size.
+const COPIES_PER_EPISODE: u8 = 4;
 
 /// Ids of the first joining host start here; each host gets its own block.
 pub const ID_BLOCK: u32 = 1000;
@@ -64,6 +69,15 @@ pub struct BridgeStats {
     pub hellos: u64,
     /// Messages from remote hosts that could not be decoded (dropped).
     pub malformed: u64,
+    /// Messages from remote hosts claiming a worker id no joined host was given — a local
+    /// worker's, say (dropped before they reach the learner).
+    pub foreign_ids: u64,
+    /// Episodes from remote hosts that were not handed to the worker they claim (or not in
+    /// the current iteration, or already relayed once): dropped.
+    pub unasked: u64,
+    /// Join requests refused (another protocol version, a malformed request, no worker or
+    /// more than one id block of them, the id space exhausted).
+    pub joins_refused: u64,
 }
 
 #[derive(Debug)]
@@ -72,6 +86,29 @@ struct Shared {
     next_block: u32,
     latest: Vec<ZBytes>,
     hosts: u32,
+    joins_refused: u64,
+}
+
+impl Shared {
+    /// The id base of the next joining host of `workers` workers, or why it is refused.
+    fn hand_out_block(&mut self, workers: u32) -> Result<u32, String> {
+        if workers == 0 || workers > ID_BLOCK {
+            return Err(format!("a host runs 1 to {ID_BLOCK} workers; this one asked for {workers}"));
+        }
+        let base = self
+            .next_block
+            .checked_mul(ID_BLOCK)
+            .filter(|b| b.checked_add(ID_BLOCK).is_some_and(|end| end < PROXY_ID))
+            .ok_or_else(|| "this run has handed out every worker id it has; no more hosts can join".to_string())?;
+        self.next_block += 1;
+        self.hosts += 1;
+        Ok(base)
+    }
+
+    /// Whether `worker_id` lies in a block handed to a joined host.
+    fn is_remote_id(&self, worker_id: u32) -> bool {
+        worker_id >= ID_BLOCK && worker_id / ID_BLOCK < self.next_block
+    }
 }
 
 /// The learner host's end of the bridge.
@@ -85,6 +122,10 @@ pub struct LearnerBridge {
     _latest: Queryable<()>,
     shared: Arc<Mutex<Shared>>,
     remote: BTreeSet<u32>,
+    /// (k, worker, kind, index) of every episode of the current iteration handed to a remote
+    /// worker, with how many more copies of it may pass: the only episodes the bridge lets
+    /// through.
+    handed: BTreeMap<(u64, u32, u32, u32), u8>,
     info: Option<Info>,
     /// The latest weights message, encoded once: sent, then kept for resync answers.
     weights: Option<ZBytes>,
@@ -117,6 +158,7 @@ impl LearnerBridge {
             next_block: 1,
             latest: Vec::new(),
             hosts: 0,
+            joins_refused: 0,
         }));
         let s = shared.clone();
         let join = session
@@ -132,24 +174,31 @@ impl LearnerBridge {
                         Err(e) => Err(e.to_string()),
                         Ok(req) => {
                             let mut sh = s.lock().expect("bridge state");
-                            let mut reply = sh.template.clone();
-                            reply.id_base = sh.next_block * ID_BLOCK;
-                            sh.next_block += 1;
-                            sh.hosts += 1;
-                            tracing::info!(
-                                "host {:?} joins with {} workers (ids from {})",
-                                req.host,
-                                req.workers,
-                                reply.id_base
-                            );
-                            encode("join reply", &reply).map_err(|e| e.to_string())
+                            sh.hand_out_block(req.workers).and_then(|base| {
+                                let reply = JoinReply { id_base: base, ..sh.template.clone() };
+                                tracing::info!(
+                                    "host {:?} joins with {} workers (ids from {base})",
+                                    req.host,
+                                    req.workers
+                                );
+                                encode("join reply", &reply).map_err(|e| e.to_string())
+                            })
                         }
                     },
                 };
                 let sent = match answer {
                     Ok(b) => query.reply(JOIN_KEY, b).wait(),
                     Err(e) => {
-                        tracing::warn!("refusing a join request: {e}");
+                        let mut sh = s.lock().expect("bridge state");
+                        if sh.joins_refused == 0 {
+                            tracing::warn!(
+                                "refusing a join request: {e} (further ones are counted in the result's details)"
+                            );
+                        } else {
+                            tracing::debug!("refusing a join request: {e}");
+                        }
+                        sh.joins_refused += 1;
+                        drop(sh);
                         query.reply_err(e).wait()
                     }
                 };
@@ -185,6 +234,7 @@ impl LearnerBridge {
             _latest: latest,
             shared,
             remote: BTreeSet::new(),
+            handed: BTreeMap::new(),
             info: None,
             weights: None,
             stats: BridgeStats::default(),
@@ -200,7 +250,9 @@ impl LearnerBridge {
     /// Traffic so far.
     pub fn stats(&self) -> BridgeStats {
         let mut s = self.stats.clone();
-        s.hosts = self.shared.lock().expect("bridge state").hosts;
+        let shared = self.shared.lock().expect("bridge state");
+        s.hosts = shared.hosts;
+        s.joins_refused = shared.joins_refused;
         s
     }
 
@@ -245,6 +297,9 @@ impl LearnerBridge {
         }
         for (h, ids) in self.proxy.take_tasks()? {
             if self.remote.contains(&h.worker_id) {
+                // Episodes of earlier iterations are stale: the learner would refuse them.
+                self.handed = self.handed.split_off(&(h.k, 0, 0, 0));
+                self.handed.extend(ids.iter().map(|e| ((h.k, h.worker_id, e.kind, e.index), COPIES_PER_EPISODE)));
                 self.put(encode("down", &Down::Tasks(Tasks::from_parts(&h, &ids)))?.into())?;
                 moved = true;
             }
@@ -252,34 +307,31 @@ impl LearnerBridge {
         self.proxy.drain_wakeups();
         // Remote hosts → learner.
         let mut n = 0;
-        loop {
+        // At most 512 messages a round, so a flood from the hosts cannot starve the way down.
+        while n < 512 {
             let next = if n == 0 && !moved { self.up.recv_timeout(wait) } else { self.up.try_recv() };
             let Some(sample) = next.map_err(|e| BridgeError::Zenoh { what: "receive", reason: e.to_string() })? else {
                 break;
             };
             n += 1;
             let bytes = sample.payload().to_bytes();
-            match decode::<Up>("up", &bytes) {
-                Ok(Up::Hello(h)) => self.relay_hello(h)?,
-                Ok(Up::Episode(e)) => match e.to_parts() {
-                    Ok((mut header, records)) => {
-                        header.run_id = run_id_bytes(self.proxy.run_id());
-                        self.stats.transitions += records.len() as u64;
-                        self.stats.episodes += 1;
-                        self.proxy.publish_episode(header, records.into_iter())?;
-                    }
-                    Err(e) => {
-                        tracing::warn!("dropping a malformed episode from a remote host: {e}");
-                        self.stats.malformed += 1;
-                    }
-                },
-                Err(e) => {
-                    tracing::warn!("dropping a malformed message from a remote host: {e}");
-                    self.stats.malformed += 1;
-                }
+            let msg = decode::<Up>("up", &bytes);
+            let claimed = match &msg {
+                Ok(Up::Hello(h)) => Some(h.worker_id),
+                Ok(Up::Episode(e)) => Some(e.worker_id),
+                Err(_) => None,
+            };
+            // A remote host speaks only for the ids it was given: never for a local worker
+            // (whose tasks and liveness it could otherwise disturb) nor the proxy.
+            if claimed.is_some_and(|id| !self.shared.lock().expect("bridge state").is_remote_id(id)) {
+                let id = claimed.unwrap_or_default();
+                dropped(&mut self.stats.foreign_ids, format_args!("a message claiming worker {id}, not a remote id"));
+                continue;
             }
-            if n >= 512 {
-                break;
+            match msg {
+                Ok(Up::Hello(h)) => self.relay_hello(h)?,
+                Ok(Up::Episode(e)) => self.relay_episode(&e)?,
+                Err(e) => dropped(&mut self.stats.malformed, format_args!("a malformed message: {e}")),
             }
         }
         if n > 0 {
@@ -305,6 +357,50 @@ impl LearnerBridge {
         Ok(())
     }
 
+    /// Relays episode `e` to the learner if it is well-formed and was asked for.
+    fn relay_episode(&mut self, e: &EpisodeMsg) -> Result<(), BridgeError> {
+        let parts = e.to_parts().and_then(|p| {
+            let cap = self.proxy.info().episode_cap;
+            if p.1.len() > cap as usize {
+                Err(BridgeError::Codec {
+                    what: "episode",
+                    reason: format!("{} steps, over the cap of {cap}", p.1.len()),
+                })
+            } else {
+                Ok(p)
+            }
+        });
+        match parts {
+            Err(err) => dropped(&mut self.stats.malformed, format_args!("a malformed episode: {err}")),
+            // Not handed to that worker, stale, or duplicated past its budget: what the learner
+            // would refuse anyway, dropped here so a flood never crowds real episodes out of the
+            // learner's queue.
+            Ok(_) if !self.take_copy(e) => dropped(
+                &mut self.stats.unasked,
+                format_args!("episode {:?} of iteration {}, not asked of worker {}", e.episode, e.k, e.worker_id),
+            ),
+            Ok((mut header, records)) => {
+                header.run_id = run_id_bytes(self.proxy.run_id());
+                self.stats.transitions += records.len() as u64;
+                self.stats.episodes += 1;
+                self.proxy.publish_episode(header, records.into_iter())?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether episode `e` was handed to the worker it claims in the current iteration, with
+    /// copies left to pass (using one).
+    fn take_copy(&mut self, e: &EpisodeMsg) -> bool {
+        match self.handed.get_mut(&(e.k, e.worker_id, e.episode.0, e.episode.1)) {
+            Some(left) if *left > 0 => {
+                *left -= 1;
+                true
+            }
+            _ => false,
+        }
+    }
+
     fn relay_hello(&mut self, h: HelloMsg) -> Result<(), BridgeError> {
         match h.kind {
             hello_kind::JOIN | hello_kind::HEARTBEAT => {
@@ -317,5 +413,58 @@ impl LearnerBridge {
         self.stats.hellos += 1;
         self.proxy.forward_hello(h.to_hello())?;
         Ok(())
+    }
+}
+
+/// Counts a message dropped from a remote host; the first of each kind is a warning, the rest
+/// are counted (the result's details carry the counts) and logged at debug level.
+fn dropped(count: &mut u64, what: std::fmt::Arguments<'_>) {
+    if *count == 0 {
+        tracing::warn!("dropping {what} from a remote host (further ones are counted in the result's details)");
+    } else {
+        tracing::debug!("dropping {what} from a remote host");
+    }
+    *count += 1;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shared() -> Shared {
+        let template = JoinReply {
+            protocol: PROTOCOL_VERSION,
+            run_id: "r".into(),
+            run: "{}".into(),
+            id_base: 0,
+            n_params: 1,
+            episode_cap: 1,
+            episodes_per_iteration: 1,
+            zeta_dim: 1,
+        };
+        Shared { template, next_block: 1, latest: Vec::new(), hosts: 0, joins_refused: 0 }
+    }
+
+    #[test]
+    fn each_host_gets_its_own_block_and_speaks_only_for_handed_blocks() {
+        let mut s = shared();
+        assert!(!s.is_remote_id(1000), "no host joined yet");
+        assert_eq!(s.hand_out_block(3), Ok(1000));
+        assert_eq!(s.hand_out_block(ID_BLOCK), Ok(2000));
+        assert_eq!(s.hosts, 2);
+        for (id, remote) in [(0, false), (999, false), (1000, true), (2999, true), (3000, false), (PROXY_ID, false)] {
+            assert_eq!(s.is_remote_id(id), remote, "id {id}");
+        }
+    }
+
+    #[test]
+    fn joins_of_no_workers_too_many_or_past_the_id_space_are_refused() {
+        let mut s = shared();
+        assert!(s.hand_out_block(0).unwrap_err().contains("asked for 0"));
+        assert!(s.hand_out_block(ID_BLOCK + 1).is_err());
+        s.next_block = u32::MAX / ID_BLOCK - 1;
+        assert_eq!(s.hand_out_block(1), Ok((u32::MAX / ID_BLOCK - 1) * ID_BLOCK), "the last whole block");
+        assert!(s.hand_out_block(1).unwrap_err().contains("every worker id"));
+        assert_eq!(s.hosts, 1, "refused joins are not hosts");
     }
 }

@@ -166,6 +166,33 @@ impl RemoteBridge {
         self.finished
     }
 
+    /// Sends `bytes` to the learner host as they are, bypassing the mirror: what a broken or
+    /// hostile host could send. For diagnostics and for testing what a learner host refuses;
+    /// a worker host never needs it.
+    pub fn send_raw(&self, bytes: Vec<u8>) -> Result<(), BridgeError> {
+        self.up.put(bytes).wait().map_err(err("put"))
+    }
+
+    /// The next message from the learner host, waiting up to `wait`, taken off the bridge
+    /// rather than relayed (a joined host that never calls [`start`](Self::start) watches the
+    /// run this way). Malformed messages are skipped.
+    pub fn recv_raw(&self, wait: Duration) -> Result<Option<Down>, BridgeError> {
+        let deadline = Instant::now() + wait;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let next = self
+                .down
+                .recv_timeout(left)
+                .map_err(|e| BridgeError::Zenoh { what: "receive", reason: e.to_string() })?;
+            match next.map(|sample| decode::<Down>("down", &sample.payload().to_bytes())) {
+                None => return Ok(None),
+                Some(Ok(m)) => return Ok(Some(m)),
+                Some(Err(_)) if left.is_zero() => return Ok(None),
+                Some(Err(_)) => {}
+            }
+        }
+    }
+
     fn resync(&mut self) -> Result<(), BridgeError> {
         let replies = self
             .session
@@ -178,8 +205,11 @@ impl RemoteBridge {
         let mut msgs = Vec::new();
         while let Ok(r) = replies.recv() {
             if let Ok(sample) = r.result() {
-                msgs.push(decode::<Down>("down", &sample.payload().to_bytes())?);
                 self.received += 1;
+                match decode::<Down>("down", &sample.payload().to_bytes()) {
+                    Ok(m) => msgs.push(m),
+                    Err(e) => tracing::warn!("dropping a malformed resync answer: {e}"),
+                }
             }
         }
         self.last_down = Instant::now();

@@ -329,6 +329,43 @@ mod tests {
         assert!(huge.to_parts().is_err());
     }
 
+    proptest::proptest! {
+        /// Whatever bytes a peer sends — random, or a real message cut short or with bytes
+        /// flipped — decoding is an error or a message, never a panic, and a decoded episode
+        /// converts or is refused.
+        #[test]
+        fn any_bytes_decode_or_are_refused_never_panic(
+            noise in proptest::collection::vec(proptest::num::u8::ANY, 0..256),
+            cut in 0usize..200,
+            flips in proptest::collection::vec((0usize..200, proptest::num::u8::ANY), 0..8),
+        ) {
+            let real = encode("up", &Up::Episode(EpisodeMsg {
+                worker_id: 1001,
+                k: 7,
+                episode: (0, 3),
+                seq: 2,
+                capped: false,
+                zeta_dim: 2,
+                steps: vec![Step { s: 1, a: 2, s2: 3, cost: 0.5, zeta: vec![0.1, 0.2] }; 4],
+            })).unwrap();
+            let mut mutated = real[..cut.min(real.len())].to_vec();
+            for (at, byte) in flips {
+                if let Some(b) = mutated.get_mut(at) {
+                    *b ^= byte;
+                }
+            }
+            for bytes in [&noise, &mutated] {
+                if let Ok(Up::Episode(e)) = decode::<Up>("up", bytes) {
+                    let _ = e.to_parts();
+                }
+                let _ = decode::<Down>("down", bytes);
+                let _ = decode::<JoinRequest>("join", bytes);
+                let _ = decode::<JoinReply>("join", bytes);
+                let _ = peek_version(bytes);
+            }
+        }
+    }
+
     #[test]
     fn a_join_reply_of_any_version_shows_its_version_first() {
         let reply = JoinReply {

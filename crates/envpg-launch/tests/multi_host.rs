@@ -16,18 +16,21 @@ fn exe() -> &'static str {
     env!("CARGO_BIN_EXE_envpg-launch")
 }
 
-/// Waits for `child` under a watchdog.
-fn wait(mut child: Child, limit: Duration, what: &str) -> Output {
-    let start = Instant::now();
-    while child.try_wait().expect("wait").is_none() {
-        if start.elapsed() > limit {
-            let _ = child.kill();
-            let out = child.wait_with_output().expect("output");
+/// Waits for `child` under a watchdog, reading its output meanwhile (a chatty child never
+/// blocks on a full pipe).
+fn wait(child: Child, limit: Duration, what: &str) -> Output {
+    let pid = child.id() as i32;
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || tx.send(child.wait_with_output().expect("output")));
+    match rx.recv_timeout(limit) {
+        Ok(out) => out,
+        Err(_) => {
+            // SAFETY: a signal to a child we spawned and have not reaped.
+            unsafe { libc::kill(pid, libc::SIGKILL) };
+            let out = rx.recv().expect("output");
             panic!("watchdog: {what} still running after {limit:?}\nstderr:\n{}", String::from_utf8_lossy(&out.stderr));
         }
-        std::thread::sleep(Duration::from_millis(20));
     }
-    child.wait_with_output().expect("output")
 }
 
 fn text(b: &[u8]) -> String {
@@ -356,4 +359,142 @@ fn bad_endpoints_are_input_errors() {
     );
     assert_eq!(o.status.code(), Some(1));
     assert!(text(&o.stderr).contains("no learner answered"), "{}", text(&o.stderr));
+}
+
+/// What the rogue host of [`a_rogue_host_changes_nothing`] sent.
+#[derive(Debug, Default)]
+struct Attacks {
+    /// Iterations it attacked.
+    iterations: u64,
+    /// Messages sent.
+    messages: u64,
+}
+
+/// A host that joins the run like a worker host, then, in every iteration whose tasks it sees
+/// on the way down, sends everything a broken or hostile host could: bytes that decode to
+/// nothing, messages claiming a local worker's id, episodes nobody asked for (its own ids,
+/// stale and future iterations, unknown episodes, duplicates), and malformed copies of an
+/// episode handed to the real worker host. (Well-formed copies of that episode are what no
+/// learner can tell from the real one: see docs/training.md.)
+fn rogue_host(endpoint: String, stop: Arc<std::sync::atomic::AtomicBool>) -> Attacks {
+    use envpg_bridge::wire::{Down, EpisodeMsg, HelloMsg, Step, Up, encode};
+    use envpg_bridge::{RemoteBridge, RemoteConfig};
+    use envpg_protocol::{PROTOCOL_VERSION, hello_kind};
+    let config = |workers| RemoteConfig {
+        connect: endpoint.clone(),
+        host: "rogue".into(),
+        workers,
+        join_timeout: Duration::from_secs(60),
+        protocol: PROTOCOL_VERSION,
+    };
+    let bridge = RemoteBridge::join(&config(2)).expect("the rogue joins");
+    let own = bridge.joined().id_base;
+    let d = bridge.joined().zeta_dim as usize;
+    let cap = bridge.joined().episode_cap as usize;
+    let mut attacks = Attacks::default();
+    let step = |s: u32, cost: f32| Step { s, a: 0, s2: 0, cost, zeta: vec![0.5; d] };
+    let episode = |worker_id: u32, k: u64, episode: (u32, u32), steps: Vec<Step>| {
+        Up::Episode(EpisodeMsg { worker_id, k, episode, seq: 0, capped: false, zeta_dim: d as u32, steps })
+    };
+    let mut attacked = std::collections::BTreeSet::new();
+    while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+        let t = match bridge.recv_raw(Duration::from_millis(200)).expect("receive") {
+            Some(Down::Info(i)) if i.finished => break,
+            Some(Down::Tasks(t)) if !(own..own + 2).contains(&t.worker_id) && !t.episodes.is_empty() => t,
+            _ => continue,
+        };
+        if !attacked.insert(t.k) {
+            continue;
+        }
+        let (k, real, handed) = (t.k, t.worker_id, t.episodes[0]);
+        let one = || vec![step(0, 1.0)];
+        let valid = encode("up", &episode(own, k, handed, one())).unwrap();
+        let mut msgs: Vec<Vec<u8>> = vec![vec![], vec![0xff; 64], valid[..valid.len() / 2].to_vec()];
+        let mut bad_zeta = one();
+        bad_zeta[0].zeta.push(1.0);
+        for msg in [
+            // A local worker's id: leaving, and delivering.
+            Up::Hello(HelloMsg {
+                protocol: PROTOCOL_VERSION,
+                kind: hello_kind::LEAVE,
+                worker_id: 0,
+                pid: 1,
+                incarnation: 0,
+                detail: 0,
+            }),
+            episode(0, k, handed, one()),
+            // Not asked for: its own id, a stale and a future iteration, an unknown episode, twice each.
+            episode(own, k, handed, one()),
+            episode(own, k, handed, one()),
+            episode(real, k.wrapping_sub(1), handed, one()),
+            episode(real, k + 1_000_000, handed, one()),
+            episode(real, k, (7, 999_999), one()),
+            episode(real, k, (7, 999_999), one()),
+            // Malformed copies of the real host's episode: a step with too many ζ entries, over
+            // the cap, a NaN cost, a state out of range.
+            episode(real, k, handed, bad_zeta),
+            episode(real, k, handed, (0..=cap).map(|_| step(0, 1.0)).collect()),
+            episode(real, k, handed, vec![step(0, f32::NAN)]),
+            episode(real, k, handed, vec![step(u32::MAX, 1.0)]),
+        ] {
+            msgs.push(encode("up", &msg).unwrap());
+        }
+        for m in msgs {
+            bridge.send_raw(m).expect("send");
+            attacks.messages += 1;
+        }
+        attacks.iterations += 1;
+    }
+    attacks
+}
+
+#[test]
+fn a_rogue_host_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let iterations = 300;
+    let reference = in_process_result(dir.path(), iterations);
+    let hosts = Hosts::loopback();
+    let (args, out) = learner_args(dir.path(), iterations, 1, &hosts, &["--emulator-cost-us", "200"]);
+    let learner = hosts.learner(&args);
+    let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let endpoint = format!("tcp/{}", hosts.learner_addr);
+    let rogue = {
+        let stop = stop.clone();
+        std::thread::spawn(move || rogue_host(endpoint, stop))
+    };
+    let remote = hosts.worker_host(1);
+    // A host asking for more worker ids than a host gets is refused by the learner host.
+    let o = wait(
+        Command::new(exe())
+            .args(["worker", "--connect", &format!("tcp/{}", hosts.learner_addr), "--workers", "5000"])
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+        Duration::from_secs(90),
+        "worker host of too many workers",
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(text(&o.stderr).contains("refused this host: a host runs 1 to 1000 workers"), "{}", text(&o.stderr));
+    let lo = wait(learner, Duration::from_secs(180), "learner host");
+    let ro = wait(remote, Duration::from_secs(60), "worker host");
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let attacks = rogue.join().expect("the rogue host's thread");
+    assert!(lo.status.success(), "learner host failed:\n{}\nworker host:\n{}", text(&lo.stderr), text(&ro.stderr));
+    assert!(ro.status.success(), "worker host failed:\n{}", text(&ro.stderr));
+    let r = envpg_core::ResultFile::load(&out).unwrap();
+    same_result(&r, &reference);
+    let details = r.details.as_ref().unwrap();
+    let (bridge, link) = (&details["bridge"], &details["link"]);
+    eprintln!("rogue {attacks:?}\nbridge {bridge}\nlink {link}");
+    assert!(attacks.iterations >= 5, "the rogue attacked only {attacks:?}: the run ended too soon to test anything");
+    assert_eq!(bridge["hosts"], 2, "{bridge}");
+    assert_eq!(bridge["joins_refused"], 1, "{bridge}");
+    for counter in ["malformed", "foreign_ids", "unasked"] {
+        assert!(bridge[counter].as_u64().unwrap() >= attacks.iterations, "{counter}: {bridge}");
+    }
+    // The NaN cost and the state out of range passed the bridge (it cannot tell them) and the
+    // learner refused them, or counted them as duplicates of the real one.
+    let refused = link["refused"].as_u64().unwrap() + link["duplicates"].as_u64().unwrap();
+    assert!(refused >= attacks.iterations, "{link}");
+    assert!(bridge["episodes"].as_u64().unwrap() > 0, "the real worker host never contributed: {bridge}");
 }

@@ -82,6 +82,9 @@ pub struct LinkStats {
     /// Messages refused (other run, version, an episode not handed to the worker it claims,
     /// shape, values out of range).
     pub refused: u64,
+    /// Of those, episodes refused on their contents (shape, ranges, non-finite values): the
+    /// first is logged as a warning, the rest only counted.
+    pub refused_contents: u64,
     /// Workers declared dead (timeout, replacement or goodbye with work outstanding).
     pub workers_lost: u64,
     /// Episodes handed out again after a worker was lost.
@@ -320,7 +323,18 @@ where
                         last_arrival = Instant::now();
                     }
                     Err(reason) => {
-                        tracing::warn!("refusing episode {:?} from worker {}: {reason}", h.episode, h.worker_id);
+                        // The first is a warning; the rest are counted, so a flood of bad
+                        // episodes cannot flood the log (or block on a full stderr pipe).
+                        if stats.refused_contents == 0 {
+                            tracing::warn!(
+                                "refusing episode {:?} from worker {}: {reason} (further ones are counted in the result's details)",
+                                h.episode,
+                                h.worker_id
+                            );
+                        } else {
+                            tracing::debug!("refusing episode {:?} from worker {}: {reason}", h.episode, h.worker_id);
+                        }
+                        stats.refused_contents += 1;
                         stats.refused += 1;
                     }
                 }

@@ -57,11 +57,11 @@ fn port_err(port: &'static str, service: &str, e: impl std::fmt::Debug) -> Trans
     TransportError::Port { port, service: service.to_owned(), reason: format!("{e:?}") }
 }
 
-fn node<S: Service>(name: &str) -> Result<Node<S>, TransportError> {
+fn node<S: Service>(name: &str, signals: SignalHandlingMode) -> Result<Node<S>, TransportError> {
     let node_name = NodeName::new(name).map_err(|e| TransportError::Node(format!("{e:?}")))?;
     NodeBuilder::new()
         .name(&node_name)
-        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .signal_handling_mode(signals)
         .create::<S>()
         .map_err(|e| TransportError::Node(format!("{e:?}")))
 }
@@ -85,7 +85,7 @@ pub struct LearnerEnd<S: Service> {
 impl<S: Service> LearnerEnd<S> {
     /// Creates every service of run `run_id` with `sizes`.
     pub fn create(run_id: &str, sizes: LinkSizes) -> Result<Self, TransportError> {
-        let node = node::<S>(&format!("envpg-learner-{run_id}"))?;
+        let node = node::<S>(&format!("envpg-learner-{run_id}"), SignalHandlingMode::HandleTerminationRequests)?;
         let names = ServiceNames::new(run_id);
         let ports = sizes.max_ports();
 
@@ -367,20 +367,24 @@ impl<S: Service> WorkerEnd<S> {
     /// protocol version (announcing `protocol` ourselves — normally [`PROTOCOL_VERSION`]), then
     /// opens the versioned services.
     pub fn open(run_id: &str, worker_id: u32, protocol: u32, timeout: Duration) -> Result<Self, TransportError> {
-        Self::open_while(run_id, worker_id, protocol, timeout, &|| true)
+        Self::open_while(run_id, worker_id, protocol, timeout, &|| true, SignalHandlingMode::HandleTerminationRequests)
     }
 
     /// As [`WorkerEnd::open`], giving up with [`TransportError::RunOver`] as soon as
     /// `keep_waiting` says no: a worker thread of an in-process run whose learner already
-    /// returned (the other workers did all the work) then leaves at once.
+    /// returned (the other workers did all the work) then leaves at once. `signals` is how
+    /// the end's node treats SIGINT/SIGTERM while it waits: iceoryx2 keeps one termination flag
+    /// per process and the first node or WaitSet to look clears it, so a worker *thread* of a
+    /// process whose learner must see the signal passes [`SignalHandlingMode::Disabled`].
     pub fn open_while(
         run_id: &str,
         worker_id: u32,
         protocol: u32,
         timeout: Duration,
         keep_waiting: &dyn Fn() -> bool,
+        signals: SignalHandlingMode,
     ) -> Result<Self, TransportError> {
-        let node = node::<S>(&format!("envpg-worker{worker_id}-{run_id}"))?;
+        let node = node::<S>(&format!("envpg-worker{worker_id}-{run_id}"), signals)?;
         let names = ServiceNames::new(run_id);
         let start = Instant::now();
         let n = names.run_info();

@@ -142,8 +142,14 @@ fn a_worker_joining_a_run_that_is_over_leaves_at_once() {
     // No learner at all: asked to stop waiting, the worker leaves at once instead of waiting
     // out its join timeout (an in-process run whose learner already returned): the timeout
     // would have been `NoLearner`.
-    let r =
-        WorkerEnd::<local::Service>::open_while("linkover1", 0, PROTOCOL_VERSION, Duration::from_secs(30), &|| false);
+    let r = WorkerEnd::<local::Service>::open_while(
+        "linkover1",
+        0,
+        PROTOCOL_VERSION,
+        Duration::from_secs(30),
+        &|| false,
+        iceoryx2::prelude::SignalHandlingMode::HandleTerminationRequests,
+    );
     assert!(matches!(r, Err(TransportError::RunOver { .. })), "{:?}", r.err());
     // Without that, a missing learner is an error after the timeout.
     let r = WorkerEnd::<local::Service>::open("linkover2", 0, PROTOCOL_VERSION, Duration::from_millis(50));

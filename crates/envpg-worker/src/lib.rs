@@ -194,8 +194,22 @@ where
     let d = ro.env.zeta_dim();
 
     let over = || cfg.run_over.as_ref().is_some_and(|f| f.load(Ordering::Acquire));
-    let end = match WorkerEnd::<S>::open_while(&cfg.run_id, cfg.worker_id, cfg.protocol, cfg.join_timeout, &|| !over())
-    {
+    // iceoryx2 keeps one termination flag per process and the first node or WaitSet to look
+    // clears it: in an in-process run (`run_over` set) the learner thread must be the one to
+    // see SIGINT, so that it checkpoints; its end of the run then stops the worker threads.
+    let signals = if cfg.run_over.is_some() {
+        SignalHandlingMode::Disabled
+    } else {
+        SignalHandlingMode::HandleTerminationRequests
+    };
+    let end = match WorkerEnd::<S>::open_while(
+        &cfg.run_id,
+        cfg.worker_id,
+        cfg.protocol,
+        cfg.join_timeout,
+        &|| !over(),
+        signals,
+    ) {
         Err(TransportError::RunOver { .. }) => return Ok(WorkerExit::RunOver),
         Err(TransportError::Interrupted { .. }) => return Ok(WorkerExit::Terminated),
         // The learner tore its services down between our looks: the run is over, not broken.
@@ -203,14 +217,6 @@ where
         other => other?,
     };
     end.say(hello_kind::JOIN, cfg.worker_id, cfg.incarnation)?;
-    // iceoryx2 keeps one termination flag per process and the first WaitSet to look clears it:
-    // in an in-process run (`run_over` set) the learner thread must be the one to see SIGINT,
-    // so that it checkpoints; its end of the run then stops the worker threads.
-    let signals = if cfg.run_over.is_some() {
-        SignalHandlingMode::Disabled
-    } else {
-        SignalHandlingMode::HandleTerminationRequests
-    };
     let waitset = WaitSetBuilder::new()
         .signal_handling_mode(signals)
         .create::<S>()
