@@ -11,7 +11,8 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use support::launch::{
-    comparable, processes_with, run, signal, small_run, start, tiny_instance_file, until, wait, with,
+    assert_metrics_match_history, comparable, processes_with, run, signal, small_run, start, tiny_instance_file, until,
+    wait, with,
 };
 
 #[test]
@@ -83,6 +84,8 @@ fn interrupt_then_resume(mode: &[&str], target: Target, dir: &Path, reference: &
     let o = run(&["--resume".into(), run_dir_s.clone(), "--quiet".into()], Duration::from_secs(120));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(&comparable(&out) == reference, "{mode:?}: the resumed run differs from the uninterrupted one ({err})");
+    // The live metrics of both parts read as one run.
+    assert_metrics_match_history(&run_dir, &out);
 
     // The checkpoint is now the end of training. Corrupt it: --resume refuses, exit 2.
     let cp = run_dir.join("checkpoint.bin");

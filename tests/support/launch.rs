@@ -18,6 +18,8 @@ pub fn binary() -> PathBuf {
 pub fn start(args: &[String]) -> Child {
     Command::new(binary())
         .args(args)
+        // Default run directories (runs/<id>) stay out of the source tree.
+        .env("ENVPG_RUNS_DIR", std::env::temp_dir().join("envpg-test-runs"))
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -159,4 +161,26 @@ pub fn comparable(path: &Path) -> serde_json::Value {
 pub fn with(mut base: Vec<String>, extra: &[&str]) -> Vec<String> {
     base.extend(extra.iter().map(|s| s.to_string()));
     base
+}
+
+/// Checks `DIR/metrics.csv` of a finished run against its result file `out`: one row per
+/// iteration, k = 0, 1, … in order, each once, with α, the J_H estimate and the exact J of the
+/// result's history, bit for bit.
+pub fn assert_metrics_match_history(run_dir: &Path, out: &Path) {
+    let text = std::fs::read_to_string(run_dir.join("metrics.csv")).expect("metrics.csv");
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no {name} in {header:?}"));
+    let (alpha, j_h, j) = (col("alpha"), col("J_H_estimate"), col("J_exact"));
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap();
+    let history = r["history"].as_array().expect("history");
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), history.len(), "one row per iteration:\n{text}");
+    for (row, h) in rows.iter().zip(history) {
+        assert_eq!(row.len(), header.len(), "{row:?}");
+        assert_eq!(row[0].parse::<u64>().unwrap(), h["k"].as_u64().unwrap(), "rows in iteration order");
+        assert_eq!(row[alpha].parse::<f64>().unwrap(), h["alpha"].as_f64().unwrap(), "k = {}", row[0]);
+        assert_eq!(row[j_h].parse::<f64>().unwrap(), h["j_h_estimate"].as_f64().unwrap(), "k = {}", row[0]);
+        assert_eq!(row[j].parse::<f64>().ok(), h["J_exact"].as_f64(), "k = {}", row[0]);
+    }
 }

@@ -98,6 +98,18 @@ pub struct Progress {
     pub transitions_per_s: f64,
     /// Latest exact J (history), if any.
     pub j_exact: Option<f64>,
+    /// The exact J computed at this iteration (every `eval_every`), if any.
+    pub j_exact_now: Option<f64>,
+    /// ‖ζ-gradient estimate‖ of this iteration (none where ζ is not learned).
+    pub grad_norm: Option<f64>,
+    /// The critic's TD loss of this iteration.
+    pub critic_loss: f64,
+    /// The actor's loss of this iteration.
+    pub actor_loss: f64,
+    /// The sampled J estimate of this iteration.
+    pub j_estimate: f64,
+    /// Wall-clock seconds of the run so far (all processes).
+    pub seconds: f64,
 }
 
 /// Keeps the history of a run and writes its result file.
@@ -204,6 +216,12 @@ impl Recorder {
             j_h_estimate: stats.j_h_estimate,
             transitions_per_s: self.transitions as f64 / self.start.elapsed().as_secs_f64().max(1e-9),
             j_exact: self.last_exact,
+            j_exact_now: j_exact,
+            grad_norm: stats.grad_norm,
+            critic_loss: stats.critic_loss,
+            actor_loss: stats.actor_loss,
+            j_estimate: stats.j_estimate,
+            seconds: self.seconds(),
         }
     }
 

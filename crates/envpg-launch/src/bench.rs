@@ -137,6 +137,7 @@ fn ipc_workers(env: &LoadedEnv, spec: &RunSpec, cost_us: u64, workers: usize, di
         worker_timeout_ms: 5000,
         stall_timeout_s: 60,
         listen: None,
+        tensorboard: None,
     };
     run.save(dir)?;
     let exe = std::env::current_exe()?;

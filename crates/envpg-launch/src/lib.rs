@@ -25,6 +25,8 @@
 mod args;
 mod bench;
 mod in_process;
+mod log;
+mod metrics;
 mod multi_host;
 mod roles;
 mod run_dir;
@@ -74,10 +76,14 @@ struct LaunchArgs {
     /// Write the result file (envpg.result.v2) here.
     #[arg(long, default_value = "envpg-result.json")]
     out: PathBuf,
-    /// Run directory for run.json and the checkpoint [default: a fresh directory under the
-    /// system temp dir].
+    /// Run directory: run.json, metrics.csv, log.txt, checkpoint.bin and a copy of the result
+    /// [default: runs/<run id> under $ENVPG_RUNS_DIR, or under the current directory].
     #[arg(long)]
     run_dir: Option<PathBuf>,
+    /// Also write the live metrics as TensorBoard event files in DIR
+    /// (`tensorboard --logdir DIR`).
+    #[arg(long, value_name = "DIR")]
+    tensorboard: Option<PathBuf>,
     /// Checkpoint the learner every this many iterations (needs a run directory to resume from).
     #[arg(long, default_value_t = 0)]
     checkpoint_every: u64,
@@ -174,7 +180,15 @@ pub fn main(registry: Registry) -> ExitCode {
         // zenoh's own warnings (e.g. about scouting while a learner host is not up yet) are
         // noise here: the bridge reports what matters itself.
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn,zenoh=error,zenoh_transport=error"));
-    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).try_init();
+    {
+        use tracing_subscriber::layer::SubscriberExt;
+        use tracing_subscriber::util::SubscriberInitExt;
+        let _ = tracing_subscriber::registry()
+            .with(filter)
+            .with(tracing_subscriber::fmt::layer().with_writer(std::io::stderr))
+            .with(tracing_subscriber::fmt::layer().with_ansi(false).with_writer(|| log::LogFile))
+            .try_init();
+    }
     envpg_transport::quiet_iceoryx2_logs();
     envpg_ac::memory::retain_freed_memory();
     let cli = Cli::parse();
@@ -214,6 +228,7 @@ pub fn main(registry: Registry) -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
+            log::to_file(&format!("error: {e:#}"));
             if is_interrupt(&e) {
                 return ExitCode::from(130);
             }
@@ -286,6 +301,22 @@ fn message(alpha: f64, j_h: f64, j: Option<f64>, tps: f64) -> String {
     format!("α={alpha:.3e} J_H≈{j_h:.3} J={} {tps:.0} tr/s", j.map_or("-".into(), |j| format!("{j:.4}")))
 }
 
+/// Where run directories go by default: `$ENVPG_RUNS_DIR`, or `runs/` in the current
+/// directory (created; one place a user can find and clean).
+fn default_runs_dir() -> Result<PathBuf> {
+    let dir = match std::env::var_os("ENVPG_RUNS_DIR") {
+        Some(d) if !d.is_empty() => PathBuf::from(d),
+        _ => std::env::current_dir()?.join("runs"),
+    };
+    std::fs::create_dir_all(&dir).map_err(|e| {
+        InputError(format!(
+            "cannot create {} for the run directory: {e} (choose one with --run-dir DIR)",
+            dir.display()
+        ))
+    })?;
+    Ok(dir)
+}
+
 fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Result<()> {
     if launch.bench {
         if let Some(p) = &launch.bench_out {
@@ -324,6 +355,12 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
                     .and_then(|()| envpg_core::io::check_dir_writable(d))
                     .map_err(|e| InputError(format!("--run-dir {}: {e}", d.display())))?;
             }
+            if let Some(d) = &launch.tensorboard {
+                std::fs::create_dir_all(d)
+                    .map_err(|e| e.to_string())
+                    .and_then(|()| envpg_core::io::check_dir_writable(d).map_err(|e| e.to_string()))
+                    .map_err(|e| InputError(format!("--tensorboard {}: {e}", d.display())))?;
+            }
             if launch.workers == 0 && (launch.in_process || launch.listen.is_none()) {
                 return Err(InputError("--workers must be at least 1 (0 only with --listen)".into()).into());
             }
@@ -337,11 +374,22 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
                 return Err(InputError("--stall-timeout-s must be at least 1".into()).into());
             }
             let run_id = run_dir::new_run_id();
-            let dir = launch.run_dir.clone().unwrap_or_else(|| std::env::temp_dir().join(format!("envpg-{run_id}")));
+            let dir = match &launch.run_dir {
+                Some(d) => d.clone(),
+                None => default_runs_dir()?.join(&run_id),
+            };
             // Owner only: the run directory holds the run's description and checkpoints.
-            envpg_core::io::create_private_dir(&dir).with_context(|| format!("creating {}", dir.display()))?;
-            let out =
-                if launch.out.is_absolute() { launch.out.clone() } else { std::env::current_dir()?.join(&launch.out) };
+            envpg_core::io::create_private_dir(&dir).map_err(|e| {
+                InputError(format!(
+                    "cannot create the run directory {}: {e} (choose one with --run-dir DIR)",
+                    dir.display()
+                ))
+            })?;
+            let absolute = |p: &PathBuf| -> Result<PathBuf> {
+                Ok(if p.is_absolute() { p.clone() } else { std::env::current_dir()?.join(p) })
+            };
+            let out = absolute(&launch.out)?;
+            let tensorboard = launch.tensorboard.as_ref().map(absolute).transpose()?;
             let run = RunFile {
                 run_id,
                 spec,
@@ -352,19 +400,27 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
                 worker_timeout_ms: launch.worker_timeout_ms,
                 stall_timeout_s: launch.stall_timeout_s,
                 listen: launch.listen.clone(),
+                tensorboard,
             };
             run.save(&dir)?;
             (dir, run, None)
         }
     };
+    log::keep_in(&dir);
+    if !launch.quiet {
+        eprintln!("run directory: {}", dir.display());
+    }
+    let mut live = metrics::Metrics::open(&dir, run.tensorboard.as_deref(), resume.as_ref().map(|c| c.k))
+        .map_err(|e| InputError(format!("live metrics: {e:#}")))?;
     let bar = progress_bar(run.spec.config.iterations as u64, launch.quiet);
-    let train = || -> Result<Option<f64>> {
+    let mut train = || -> Result<Option<f64>> {
         Ok(if launch.in_process {
             let checkpoint = Some(run.checkpoint_policy(&dir));
             let env = run.spec.load(registry).map_err(|e| InputError(format!("{e:#}")))?;
             let (result, _) = in_process::run(&run, &env, checkpoint, resume.clone(), |p| {
                 bar.set_position(p.k + 1);
                 bar.set_message(message(p.alpha, p.j_h_estimate, p.j_exact, p.transitions_per_s));
+                live.record(&metrics::ProgressLine::from(p));
                 true
             })?;
             run_dir::save_result(&result, &run.out, &dir)?;
@@ -378,15 +434,10 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
                 max_restarts: 20,
             };
             let outcome = supervise::supervise(&l, |v| {
-                let f = |k: &str| v.get(k).and_then(|x| x.as_f64());
-                if let Some(k) = v.get("k").and_then(|x| x.as_u64()) {
-                    bar.set_position(k + 1);
-                    bar.set_message(message(
-                        f("alpha").unwrap_or(0.0),
-                        f("j_h").unwrap_or(0.0),
-                        f("j"),
-                        f("tps").unwrap_or(0.0),
-                    ));
+                if let Ok(p) = serde_json::from_value::<metrics::ProgressLine>(v.clone()) {
+                    bar.set_position(p.k + 1);
+                    bar.set_message(message(p.alpha, p.j_h, p.j, p.tps));
+                    live.record(&p);
                 }
             })?;
             if let Some(bridge) = outcome.bridge {

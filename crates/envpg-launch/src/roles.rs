@@ -16,15 +16,12 @@ pub const EXIT_PROTOCOL: u8 = 3;
 
 /// One JSON progress line on stdout, read by the supervisor.
 pub fn progress_line(p: &envpg_ac::trainer::Progress) -> String {
-    serde_json::json!({
-        "k": p.k, "total": p.total, "alpha": p.alpha, "j_h": p.j_h_estimate,
-        "tps": p.transitions_per_s, "j": p.j_exact,
-    })
-    .to_string()
+    serde_json::to_string(&crate::metrics::ProgressLine::from(p)).expect("progress serializes")
 }
 
 /// The learner process.
 pub fn learner(dir: &Path, resume: bool, registry: &Registry) -> Result<()> {
+    crate::log::keep_in(dir);
     let run = RunFile::load(dir)?;
     let env = run.spec.load(registry)?;
     let resume_from = if resume { Some(run.load_checkpoint(dir)?) } else { None };
@@ -53,6 +50,7 @@ pub fn learner(dir: &Path, resume: bool, registry: &Registry) -> Result<()> {
 /// A worker process.
 pub fn worker(dir: &Path, worker_id: u32, incarnation: u64, protocol: u32, registry: &Registry) -> Result<WorkerExit> {
     leave_with_parent();
+    crate::log::keep_in(dir);
     let run = RunFile::load(dir)?;
     let env = run.spec.load(registry)?;
     let cfg = WorkerConfig {

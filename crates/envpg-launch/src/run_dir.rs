@@ -30,6 +30,9 @@ pub struct RunFile {
     /// zenoh endpoint on which remote worker hosts join (multi-host runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub listen: Option<String>,
+    /// Where TensorBoard event files go (`--tensorboard`), besides `metrics.csv`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tensorboard: Option<PathBuf>,
 }
 
 fn default_stall() -> u64 {
@@ -51,9 +54,9 @@ impl RunFile {
         let text = std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
         serde_json::from_str(&text).with_context(|| format!("parsing {}", p.display()))
     }
-    /// `DIR/result.json`: where a finished run's result goes when its `--out` cannot be
-    /// written any more.
-    pub fn fallback_result_path(dir: &Path) -> PathBuf {
+    /// `DIR/result.json`: the run directory's copy of the result (the only one when `--out`
+    /// could not be written any more).
+    pub fn result_copy_path(dir: &Path) -> PathBuf {
         dir.join("result.json")
     }
     /// The checkpoint policy of this run: every `checkpoint_every` iterations, and always when
@@ -82,18 +85,24 @@ impl RunFile {
 /// the start), writes it into the run directory instead and fails naming both paths, so a
 /// finished run's result is never lost.
 pub fn save_result(result: &envpg_core::ResultFile, out: &Path, dir: &Path) -> Result<()> {
-    let Err(e) = result.save(out) else { return Ok(()) };
-    let fallback = RunFile::fallback_result_path(dir);
-    match result.save(&fallback) {
-        Ok(()) => anyhow::bail!(
+    // The run directory keeps its own copy, beside its metrics, checkpoints and log.
+    let copy = RunFile::result_copy_path(dir);
+    let kept = result.save(&copy);
+    match (result.save(out), kept) {
+        (Ok(()), Ok(())) => Ok(()),
+        (Ok(()), Err(e)) => {
+            tracing::warn!("the run directory's copy of the result, {}: {e}", copy.display());
+            Ok(())
+        }
+        (Err(e), Ok(())) => anyhow::bail!(
             "writing {} failed ({e}); the result was written to {} instead",
             out.display(),
-            fallback.display()
+            copy.display()
         ),
-        Err(e2) => anyhow::bail!(
+        (Err(e), Err(e2)) => anyhow::bail!(
             "writing {} failed ({e}), and so did writing it to {} ({e2}); the result is lost",
             out.display(),
-            fallback.display()
+            copy.display()
         ),
     }
 }

@@ -185,6 +185,19 @@ pub(crate) fn describe(s: &ExitStatus) -> String {
     }
 }
 
+/// Reads the learner's remaining lines (until its stdout closes, or 200 ms of silence).
+fn drain_lines(rx: &mpsc::Receiver<String>, out: &mut Outcome, progress: &mut impl FnMut(&serde_json::Value)) {
+    while let Ok(line) = rx.recv_timeout(Duration::from_millis(200)) {
+        if let Ok(v) = serde_json::from_str::<serde_json::Value>(&line) {
+            if v.get("done").is_some() {
+                out.done = Some(v);
+            } else {
+                progress(&v);
+            }
+        }
+    }
+}
+
 /// Runs the learner and workers of `l` to completion; `progress` gets the learner's JSON lines.
 pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Result<Outcome> {
     let run = RunFile::load(&l.dir)?;
@@ -246,6 +259,8 @@ pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Re
             {
                 break s;
             }
+            // The iterations it completed before stopping still reach the metrics.
+            drain_lines(&rx, &mut out, &mut progress);
             node.try_cleanup_dead_nodes();
             bail!(Interrupted);
         }
@@ -270,15 +285,7 @@ pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Re
         }
         workers.check(false)?;
     };
-    while let Ok(line) = rx.recv_timeout(Duration::from_millis(200)) {
-        if let Ok(v) = serde_json::from_str::<serde_json::Value>(&line) {
-            if v.get("done").is_some() {
-                out.done = Some(v);
-            } else {
-                progress(&v);
-            }
-        }
-    }
+    drain_lines(&rx, &mut out, &mut progress);
     // Workers leave by themselves once the learner announces the end; give them a moment.
     out.restarts = workers.restarts;
     let mut rest = workers.running();

@@ -3,7 +3,12 @@
 use std::process::Command;
 
 fn launch(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_envpg-launch")).args(args).output().expect("envpg-launch runs")
+    Command::new(env!("CARGO_BIN_EXE_envpg-launch"))
+        .args(args)
+        // Default run directories (runs/<id>) stay out of the source tree.
+        .env("ENVPG_RUNS_DIR", std::env::temp_dir().join("envpg-test-runs"))
+        .output()
+        .expect("envpg-launch runs")
 }
 
 #[test]

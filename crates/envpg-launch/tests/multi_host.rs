@@ -16,6 +16,13 @@ fn exe() -> &'static str {
     env!("CARGO_BIN_EXE_envpg-launch")
 }
 
+/// The launcher, with default run directories kept out of the source tree.
+fn launcher() -> Command {
+    let mut c = Command::new(exe());
+    c.env("ENVPG_RUNS_DIR", std::env::temp_dir().join("envpg-test-runs"));
+    c
+}
+
 /// Waits for `child` under a watchdog, reading its output meanwhile (a chatty child never
 /// blocks on a full pipe).
 fn wait(child: Child, limit: Duration, what: &str) -> Output {
@@ -73,7 +80,7 @@ fn in_process_result(dir: &Path, iterations: u32) -> envpg_core::ResultFile {
     let mut args = problem(dir, iterations);
     args.extend(["--in-process".into(), "--out".into(), out.display().to_string()]);
     let o = wait(
-        Command::new(exe()).args(&args).stderr(Stdio::piped()).spawn().unwrap(),
+        launcher().args(&args).stderr(Stdio::piped()).spawn().unwrap(),
         Duration::from_secs(120),
         "in-process run",
     );
@@ -129,9 +136,10 @@ impl Hosts {
             Some((a, b, _)) => {
                 let mut c = Command::new("ip");
                 c.args(["netns", "exec", if learner_side { a } else { b }, exe()]);
+                c.env("ENVPG_RUNS_DIR", std::env::temp_dir().join("envpg-test-runs"));
                 c
             }
-            None => Command::new(exe()),
+            None => launcher(),
         }
     }
 
@@ -316,7 +324,7 @@ fn a_worker_host_of_another_protocol_version_is_refused() {
     let (args, out) = learner_args(dir.path(), 30, 0, &hosts, &[]);
     let learner = hosts.learner(&args);
     let o = wait(
-        Command::new(exe())
+        launcher()
             .args(["worker", "--connect", &format!("tcp/{}", hosts.learner_addr), "--protocol-version", "99"])
             .stderr(Stdio::piped())
             .spawn()
@@ -342,14 +350,14 @@ fn bad_endpoints_are_input_errors() {
         vec!["--listen", "tcp/localhost", "--preset", "smoke"],
         vec!["worker", "--connect", "udp/1.2.3.4:5"],
     ] {
-        let o = Command::new(exe()).args(&args).output().unwrap();
+        let o = launcher().args(&args).output().unwrap();
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o.stderr));
         assert!(text(&o.stderr).contains("expected tcp/HOST:PORT"), "{}", text(&o.stderr));
     }
     // Nobody listening: a clear error, not a hang.
     let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
     let o = wait(
-        Command::new(exe())
+        launcher()
             .args(["worker", "--connect", &format!("tcp/127.0.0.1:{port}"), "--join-timeout-s", "2"])
             .stderr(Stdio::piped())
             .spawn()
@@ -465,7 +473,7 @@ fn a_rogue_host_changes_nothing() {
     let remote = hosts.worker_host(1);
     // A host asking for more worker ids than a host gets is refused by the learner host.
     let o = wait(
-        Command::new(exe())
+        launcher()
             .args(["worker", "--connect", &format!("tcp/{}", hosts.learner_addr), "--workers", "5000"])
             .stderr(Stdio::piped())
             .spawn()

@@ -5,7 +5,12 @@
 use std::process::Command;
 
 fn run(bin: &str, args: &[&str]) -> std::process::Output {
-    Command::new(bin).args(args).output().expect("the example's binaries run")
+    Command::new(bin)
+        .args(args)
+        // Default run directories (runs/<id>) stay out of the source tree.
+        .env("ENVPG_RUNS_DIR", std::env::temp_dir().join("envpg-test-runs"))
+        .output()
+        .expect("the example's binaries run")
 }
 
 #[test]

@@ -18,14 +18,14 @@
 //! inside the design bounds: steps and starts are projected, and a difference at a bound is
 //! one-sided. With γ < 1 an episode's cost is discounted.
 //!
-//! The policy can be improved along the way ([`PolishSettings::policy_rounds`], [`improve`]): a
+//! The policy can be improved along the way ([`PolishSettings::policy_rounds`], `polish/improve.rs`): a
 //! round of sampled policy iteration at the current design estimates V^π of every state the
 //! policy can move to by rollouts, then Q(s, a) = E[c + γV^π(s')] of every valid action of every
 //! state from one-step samples (common random numbers across the actions of a state), and
 //! switches each state to its lowest-Q action. The new policy is kept only if the polish's
 //! episodes cost less under it. Everywhere the polish compares sampled costs of an SSP, a sample
 //! with more than 1 in 1000 episodes at the length cap counts as looping and loses to any that
-//! does not ([`sampled`]). Without the rounds the polish stops where the old policy stops being
+//! does not (`polish/sampled.rs`). Without the rounds the polish stops where the old policy stops being
 //! the best one for the moved design; with them, design and policy approach a joint local
 //! optimum, as the model's local optimiser does.
 //!
