@@ -24,6 +24,29 @@
 //! learner state (θ_k, ζ_k, α_k) → [`PolicyTable`] → episodes (worker) → [`Batch`] ordered by
 //! episode index → [`Learner::update`] → (θ_{k+1}, φ_{k+1}, ζ_{k+1}, α_{k+1}); after the last
 //! iteration, the ζ polish and the result file ([`trainer::Recorder::finish`]).
+//!
+//! ```
+//! use envpg_ac::AcConfig;
+//! use envpg_ac::trainer::{RunSpec, train};
+//!
+//! let registry = envpg_envs::registry();
+//! let env = registry.load("flpo-n10m4", &[])?;
+//! let config = AcConfig {
+//!     iterations: 30, episodes: 16, explore_episodes: 8, hidden: vec![32], batch: 128, warmup: 10,
+//!     eval_every: 10, polish_iterations: 0, ..AcConfig::default()
+//! };
+//! let spec = RunSpec::new(&env, 3, config);
+//! let mut seen = Vec::new();
+//! let result = train(&spec, &registry, |p| { seen.push(p.k); true })?;
+//! assert_eq!(seen, (0..30).collect::<Vec<u64>>());
+//! assert_ne!(result.zeta, result.zeta0, "ζ is learned after the warm-up");
+//! env.sampler().zeta_space().check(&result.zeta)?; // and stays inside the design bounds
+//! // Exact J_H of the final design and soft policy (after 30 iterations the greedy one may loop).
+//! assert!(result.j_h.is_some_and(|j| j.is_finite() && j > 0.0));
+//! // The seed alone decides the run, bit for bit.
+//! assert_eq!(train(&spec, &registry, |_| true)?.zeta, result.zeta);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod config;
 pub mod exact;

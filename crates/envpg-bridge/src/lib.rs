@@ -24,6 +24,30 @@
 //! depends only on the seed. A host speaking another protocol version is refused at join with
 //! a message naming both versions; the versioned key expressions keep it from ever reading
 //! or writing the run's messages.
+//!
+//! The default build has only [`wire`]; an episode crosses it like this:
+//!
+//! ```
+//! use envpg_bridge::wire::{self, EpisodeMsg, Step, Up};
+//!
+//! let episode = Up::Episode(EpisodeMsg {
+//!     worker_id: 1003, // global id: host base 1000 + local worker 3
+//!     k: 5,
+//!     episode: (0, 17),
+//!     seq: 42,
+//!     capped: false,
+//!     zeta_dim: 2,
+//!     steps: vec![
+//!         Step { s: 0, a: 1, s2: 4, cost: 0.25, zeta: vec![0.5, 0.75] },
+//!         Step { s: 4, a: 0, s2: 9, cost: 1.5, zeta: vec![0.5, 0.75] },
+//!     ],
+//! });
+//! let bytes = wire::encode("episode", &episode)?;
+//! assert_eq!(wire::decode::<Up>("episode", &bytes)?, episode);
+//! // A message cut short on the way is refused, not half-read.
+//! assert!(wire::decode::<Up>("episode", &bytes[..bytes.len() - 1]).is_err());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod wire;
 

@@ -362,6 +362,30 @@ fn sweep_writes_a_table_and_a_figure_with_estimator_statistics() {
     assert_eq!(md.len(), 2 + 2);
     check_figure(&out, "sweep");
 
+    // Re-running reads finished runs and their studies back; a run made afresh (its file gone,
+    // or its settings changed) gets a fresh study, never the old one.
+    let runs = out.join("runs");
+    for f in std::fs::read_dir(&runs).unwrap().map(|e| e.unwrap().path()) {
+        if f.to_str().unwrap().ends_with(".study.json") {
+            let mut study: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&f).unwrap()).unwrap();
+            for e in study["estimators"].as_array_mut().unwrap() {
+                e["variance"] = 12345.0.into();
+            }
+            std::fs::write(&f, study.to_string()).unwrap();
+        }
+    }
+    ok(&envpg(&args));
+    let variance = |rows: &[BTreeMap<String, String>], v: &str| -> f64 {
+        rows.iter().find(|r| r["value"] == v).unwrap()["variance"].parse().unwrap()
+    };
+    let rows = read_csv(&out.join("sweep.csv"));
+    assert_eq!((variance(&rows, "0.05"), variance(&rows, "0.3")), (12345.0, 12345.0), "studies read back");
+    std::fs::remove_file(out.join(&rows[0]["file"])).unwrap();
+    ok(&envpg(&args));
+    let rows = read_csv(&out.join("sweep.csv"));
+    assert_ne!(variance(&rows, "0.05"), 12345.0, "the re-made run's study is fresh");
+    assert_eq!(variance(&rows, "0.3"), 12345.0, "the other run and its study are kept");
+
     // Unknown settings and unparsable values are input errors.
     let mut bad = args.to_vec();
     bad[4] = "sigmaa";

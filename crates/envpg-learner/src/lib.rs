@@ -15,6 +15,35 @@
 //! dropped, so nothing is lost or counted twice. Episodes from another run, iteration or
 //! protocol version, of the wrong shape, or carrying states or actions out of range or
 //! non-finite costs ([`episode_from`]) are refused and counted.
+//!
+//! A learner and one worker thread on one run, over the process-local iceoryx2 service:
+//!
+//! ```
+//! use std::time::Duration;
+//! use envpg_ac::{AcConfig, trainer::{RunSpec, train}};
+//! use envpg_learner::{LearnerConfig, run_learner};
+//! use envpg_worker::{WorkerConfig, run_worker};
+//!
+//! let registry = envpg_envs::registry();
+//! let env = registry.load("flpo-n10m4", &[])?;
+//! let config = AcConfig { iterations: 5, episodes: 8, explore_episodes: 4, hidden: vec![16], batch: 64,
+//!     warmup: 2, eval_every: 5, polish_iterations: 0, ..AcConfig::default() };
+//! let spec = RunSpec::new(&env, 3, config);
+//! let (run_id, secs) = (String::from("doc-run"), Duration::from_secs);
+//! let learner = LearnerConfig { run_id: run_id.clone(), spec: spec.clone(), env: env.clone(), max_workers: 1,
+//!     worker_timeout: secs(10), checkpoint: None, resume: None, stall_timeout: secs(60), collect_only: false };
+//! let worker = WorkerConfig { run_id, spec: spec.clone(), env, worker_id: 0, incarnation: 1,
+//!     protocol: envpg_protocol::PROTOCOL_VERSION, join_timeout: secs(10), heartbeat: Duration::from_millis(100),
+//!     emulator_cost_us: 0, run_over: None };
+//! let worker = std::thread::spawn(move || run_worker::<envpg_transport::local::Service>(&worker));
+//! let (result, stats) = run_learner::<envpg_transport::local::Service>(&learner, |_| true)?;
+//! worker.join().unwrap()?;
+//! assert_eq!((stats.episodes, stats.refused), (5 * (8 + 4), 0));
+//! // The seed alone decides the run: bitwise the serial trainer's result.
+//! let serial = train(&spec, &registry, |_| true)?;
+//! assert_eq!((result.zeta, result.policy), (serial.zeta, serial.policy));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod assign;
 

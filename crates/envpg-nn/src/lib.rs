@@ -16,6 +16,27 @@
 //! ## Data flow
 //! features → [`Inputs`] → [`Mlp::forward`] (→ [`Cache`]) → outputs; upstream gradient →
 //! [`Mlp::backward`] → flat parameter gradient (+ dense-input gradient) → [`Adam::step`].
+//!
+//! ```
+//! use envpg_nn::{Adam, Cache, Inputs, Mlp, MlpSpec};
+//! use rand::SeedableRng;
+//!
+//! // Inputs: one one-hot group of 3 (a state) and 1 dense feature; one hidden layer of 8.
+//! let spec = MlpSpec { onehot: vec![3], dense: 1, hidden: vec![8] };
+//! let mut net = Mlp::<f64>::new(spec, &mut rand_chacha::ChaCha12Rng::seed_from_u64(1), false);
+//! // Two samples, states 0 and 2 with dense inputs 0.5 and -1, both with target 1.
+//! let x = Inputs { onehot: &[0, 2], dense: &[0.5, -1.0], batch: 2 };
+//! let loss = |y: &[f64]| y.iter().map(|v| 0.5 * (v - 1.0).powi(2)).sum::<f64>();
+//! let (mut cache, mut y) = (Cache::default(), [0.0; 2]);
+//! net.forward(&x, &mut cache, &mut y);
+//! let before = loss(&y);
+//! let dout: Vec<f64> = y.iter().map(|v| v - 1.0).collect(); // ∂loss/∂y per sample
+//! let mut grad = vec![0.0; net.n_params()];
+//! net.backward(&x, &cache, &dout, Some(&mut grad), None);
+//! Adam::new(net.n_params(), 1e-3).step(net.params_mut(), &grad);
+//! net.eval(&x, &mut y);
+//! assert!(loss(&y) < before, "one Adam step lowers the loss: {} -> {}", before, loss(&y));
+//! ```
 
 pub mod activation;
 pub mod adam;

@@ -22,6 +22,36 @@
 //!
 //! [`Checkpoint`] is the learner's saved state: postcard inside a framed file (magic, format
 //! version, length, CRC-32), written atomically and checked against the run that resumes it.
+//!
+//! ```
+//! use std::path::Path;
+//! use envpg_protocol::{Checkpoint, CheckpointError, PROTOCOL_VERSION, run_id_bytes, run_id_str};
+//!
+//! // Run ids travel as fixed, zero-padded bytes in every header.
+//! assert_eq!(run_id_str(&run_id_bytes("run-42")), "run-42");
+//!
+//! let spec = r#"{"seed":1,"config":{"iterations":200}}"#;
+//! let ckpt = Checkpoint {
+//!     protocol: PROTOCOL_VERSION,
+//!     run_id: "run-42".into(),
+//!     k: 7,
+//!     spec_json: spec.into(),
+//!     learner: vec![1, 2, 3],
+//!     history_json: "[]".into(),
+//!     transitions: 900,
+//!     capped: 0,
+//!     seconds: 0.5,
+//! };
+//! let path = Path::new("run-42/checkpoint.bin"); // only names the file in errors
+//! let mut bytes = ckpt.to_bytes();
+//! let back = Checkpoint::from_bytes(&bytes, path)?;
+//! assert_eq!(back, ckpt);
+//! back.check_for(path, "run-42", spec)?; // the run it belongs to accepts it, another refuses it
+//! assert!(matches!(back.check_for(path, "run-43", spec), Err(CheckpointError::Mismatch { .. })));
+//! *bytes.last_mut().unwrap() ^= 1; // one flipped bit: the CRC-32 refuses the file
+//! assert!(matches!(Checkpoint::from_bytes(&bytes, path), Err(CheckpointError::Format { .. })));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod checkpoint;
 

@@ -22,6 +22,31 @@
 //! Every number in a report is read back from the result files, which carry the environment,
 //! the full instance with its parameters, ζ, ζ₀ and policy, so anyone can recompute it with
 //! `envpg evaluate`.
+//!
+//! ```
+//! use std::sync::atomic::{AtomicUsize, Ordering};
+//! use envpg_ac::AcConfig;
+//! use envpg_report::{InProcess, TablePlan, run_table};
+//!
+//! let registry = envpg_envs::registry();
+//! let env = registry.load("flpo-n10m4", &[])?;
+//! let config = AcConfig { iterations: 30, episodes: 16, explore_episodes: 8, hidden: vec![32], batch: 128,
+//!     warmup: 10, eval_every: 10, polish_iterations: 0, ..AcConfig::default() };
+//! let plan = TablePlan { registry: registry.clone(), instance: env.instance.clone(), vary: None, seeds: vec![1],
+//!     config, restarts: 1, oracle_seed: 1, basin_tol: 1e-3, jobs: 1, window: 5, preamble: vec![] };
+//! let (dir, runner) = (tempfile::tempdir()?, InProcess(registry));
+//! let summary = run_table(&plan, dir.path(), &runner, &|_| {})?;
+//! // One seed, one column: Algorithm 1, the oracle from the same ζ₀, the oracle's best restart.
+//! assert_eq!(summary.rows.len(), 3);
+//! assert_eq!(summary.csv(), std::fs::read_to_string(dir.path().join("table.csv"))?);
+//! assert!(std::fs::read_to_string(dir.path().join("table.md"))?.starts_with("# Table I"));
+//! // Run again: every result file is there already, so every job is skipped.
+//! let skipped = AtomicUsize::new(0);
+//! let count = |job: &envpg_report::JobReport| if job.skipped { skipped.fetch_add(1, Ordering::SeqCst); };
+//! run_table(&plan, dir.path(), &runner, &count)?;
+//! assert_eq!(skipped.into_inner(), 3);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod error;
 pub mod experiment;

@@ -154,14 +154,22 @@ fn run_one(plan: &SweepPlan, runner: &dyn Alg1Runner, dir: &Path, value: &str, s
             r.config.as_ref().and_then(|c| serde_json::from_value::<AcConfig>(c.clone()).ok())
                 == Some(spec.config.clone())
         });
+    // A study belongs to its run: it is read back only beside a run that was (same settings,
+    // same study point and size), never beside one made afresh.
+    let reused = existing.is_some();
     let result = match existing {
         Some(r) => r,
         None => runner.run(&spec, &result_path)?,
     };
-    let study = match std::fs::read_to_string(&study_path).ok().and_then(|t| serde_json::from_str::<Study>(&t).ok()) {
-        Some(s) if s.samples == plan.study_samples => s,
+    let train = (plan.study_at * spec.config.iterations as f64).round() as usize;
+    let kept = if reused {
+        std::fs::read_to_string(&study_path).ok().and_then(|t| serde_json::from_str::<Study>(&t).ok())
+    } else {
+        None
+    };
+    let study = match kept {
+        Some(s) if s.samples == plan.study_samples && s.trained == train => s,
         _ => {
-            let train = (plan.study_at * spec.config.iterations as f64).round() as usize;
             let s = estimator_study(&spec, &plan.registry, train, plan.study_samples).map_err(|e| e.to_string())?;
             let text = serde_json::to_string_pretty(&s).expect("study serializes");
             envpg_core::io::write_atomic(&study_path, text.as_bytes())

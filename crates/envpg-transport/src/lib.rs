@@ -13,6 +13,36 @@
 //!
 //! Data flow: learner `publish_weights` + `assign` → worker `latest_weights` + `take_tasks` →
 //! rollouts → worker `publish_episode` → learner `receive_episodes`.
+//!
+//! ```
+//! use std::time::Duration;
+//! use envpg_protocol::{EpisodeHeader, MAX_ZETA, PROTOCOL_VERSION, StepRecord, run_id_bytes};
+//! use envpg_transport::{LearnerEnd, LinkSizes, TransportError, WorkerEnd, local};
+//!
+//! let sizes = LinkSizes { max_workers: 1, n_params: 3, episode_cap: 4, episodes_per_iteration: 1 };
+//! let learner = LearnerEnd::<local::Service>::create("doc-link", sizes)?;
+//! learner.announce(1, false)?; // ζ has one coordinate; the run is on
+//! learner.publish_weights(0, 1.0, &[0.5], &[0.1, 0.2, 0.3])?; // θ_0, ζ_0, α_0, kept for late joiners
+//! // A worker thread joins, answers the weights with a one-step episode, and stays until the run ends.
+//! let worker = std::thread::spawn(|| -> Result<(), TransportError> {
+//!     let end = WorkerEnd::<local::Service>::open("doc-link", 0, PROTOCOL_VERSION, Duration::from_secs(5))?;
+//!     let (w, theta) = loop { if let Some(latest) = end.latest_weights()? { break latest; } };
+//!     assert_eq!((w.k, w.zeta[0], theta), (0, 0.5, vec![0.1, 0.2, 0.3]));
+//!     let header = EpisodeHeader { protocol: PROTOCOL_VERSION, run_id: run_id_bytes("doc-link"), k: w.k, len: 1, ..Default::default() };
+//!     end.publish_episode(header, std::iter::once(StepRecord { s: 0, a: 1, s2: 2, cost: 2.5, zeta: [0.5; MAX_ZETA] }))?;
+//!     while !end.run_finished()? {} // a publisher's samples go with it: stay until the run is over
+//!     Ok(())
+//! });
+//! let mut got = Vec::new();
+//! while got.is_empty() && !worker.is_finished() {
+//!     learner.refresh(); // hands late joiners the run info and the latest weights
+//!     learner.receive_episodes(|h, recs| got.push((h.k, h.len, recs[0].cost)))?;
+//! }
+//! learner.announce(1, true)?;
+//! worker.join().unwrap()?;
+//! assert_eq!(got, [(0, 1, 2.5)]);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod ends;
 mod error;

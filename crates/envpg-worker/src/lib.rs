@@ -12,6 +12,37 @@
 //!
 //! [`CostlyEnv`] adds a fixed amount of real compute per step, to study scaling when the
 //! environment, not the learner, dominates.
+//!
+//! Two worker threads and a learner on one run, over the process-local iceoryx2 service:
+//!
+//! ```
+//! use std::sync::{Arc, atomic::{AtomicBool, Ordering}};
+//! use std::time::Duration;
+//! use envpg_ac::{AcConfig, trainer::{RunSpec, train}};
+//! use envpg_learner::{LearnerConfig, run_learner};
+//! use envpg_worker::{WorkerConfig, WorkerExit, run_worker};
+//!
+//! let registry = envpg_envs::registry();
+//! let env = registry.load("flpo-n10m4", &[])?;
+//! let config = AcConfig { iterations: 5, episodes: 8, explore_episodes: 4, hidden: vec![16], batch: 64,
+//!     warmup: 2, eval_every: 5, polish_iterations: 0, ..AcConfig::default() };
+//! let spec = RunSpec::new(&env, 3, config);
+//! let (secs, run_over) = (Duration::from_secs, Arc::new(AtomicBool::new(false)));
+//! let workers: Vec<_> = (0..2).map(|worker_id| {
+//!     let cfg = WorkerConfig { run_id: "doc-workers".into(), spec: spec.clone(), env: env.clone(), worker_id,
+//!         incarnation: 1, protocol: envpg_protocol::PROTOCOL_VERSION, join_timeout: secs(10),
+//!         heartbeat: Duration::from_millis(100), emulator_cost_us: 0, run_over: Some(run_over.clone()) };
+//!     std::thread::spawn(move || run_worker::<envpg_transport::local::Service>(&cfg))
+//! }).collect();
+//! let learner = LearnerConfig { run_id: "doc-workers".into(), spec: spec.clone(), env, max_workers: 2,
+//!     worker_timeout: secs(10), checkpoint: None, resume: None, stall_timeout: secs(60), collect_only: false };
+//! let (result, _) = run_learner::<envpg_transport::local::Service>(&learner, |_| true)?;
+//! run_over.store(true, Ordering::Release); // a worker still joining now leaves instead of waiting
+//! for w in workers { assert!(matches!(w.join().unwrap()?, WorkerExit::Finished | WorkerExit::RunOver)); }
+//! // Whichever worker ran which episode, the result is bitwise the serial trainer's.
+//! assert_eq!(result.zeta, train(&spec, &registry, |_| true)?.zeta);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use std::collections::BTreeMap;
 use std::sync::Arc;

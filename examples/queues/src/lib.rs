@@ -20,6 +20,29 @@
 //! oracle and exact evaluation refuse it. [`registry`] is envpg's registry with both added,
 //! with their settings ([`PRESETS`]), which the crate's two binaries run: `queues-launch` (the
 //! launcher) and `queues-tools` (oracle, evaluate, table, plot, sweep).
+//!
+//! ```
+//! use envpg_core::{Outcomes, Purpose, Streams};
+//!
+//! let registry = envpg_example_queues::registry();
+//! let env = registry.load("queues", &[("lambda".into(), 0.8)])?;
+//! assert_eq!((env.name, env.param("lambda")), ("queues", Some(0.8)));
+//! let (sim, model) = (env.sampler(), env.model()?);
+//! assert_eq!(sim.n_states(), 25); // queue lengths 0..=4 each (buffer 4)
+//! let (s, zeta) = (6, [0.5, 0.7]); // one job at each server: q = (1, 1)
+//! assert_eq!(sim.valid_actions(s), [0, 1, 2]);
+//! let mut rng = Streams::new(1).stream(Purpose::Other, 0, 0);
+//! let (next, cost) = sim.step(s, 0, &zeta, &mut rng); // an arriving job goes to server 1
+//! assert!((cost - (2.0 + 2.0 * 0.25 + 2.5 * 0.49)).abs() < 1e-12); // h(q₁ + q₂) + w₁ζ₁² + w₂ζ₂²
+//! // The model agrees: the sampled state is a possible outcome, and the outcomes sum to 1.
+//! let mut out = Outcomes::default();
+//! model.outcomes(s, 0, &zeta, false, &mut out);
+//! assert!(out.next.iter().zip(&out.prob).any(|(&t, &p)| t == next && p > 0.0));
+//! assert!((out.prob.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+//! // The simulator-only variant trains too, but has no model to score it.
+//! assert!(registry.load("queues-sim", &[])?.model().is_err());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use envpg_core::{
     Env, EnvRng, EnvSpec, InstanceError, InstanceFile, ModelMdp, OracleHints, Outcomes, ParamMdp, ParamSpec, Registry,
