@@ -120,6 +120,10 @@ impl WorkerPool {
             let slot = &mut self.slots[i];
             let Some(child) = slot.child.as_mut() else { continue };
             let Some(s) = child.try_wait()? else { continue };
+            if let Some(e) = shm_exhausted(&format!("worker {i}"), &s) {
+                // A replacement would die the same way.
+                return Err(e);
+            }
             if s.success() || run_over {
                 // It saw the end of the run.
                 slot.child = None;
@@ -183,6 +187,49 @@ pub(crate) fn describe(s: &ExitStatus) -> String {
         (None, Some(sig)) => format!("signal {sig}"),
         _ => "unknown status".into(),
     }
+}
+
+/// Where iceoryx2 keeps the run's shared memory.
+const SHM_DIR: &str = "/dev/shm";
+
+/// A process of the run killed by SIGBUS touched shared memory that `/dev/shm` could not back
+/// (tmpfs hands out segments lazily and faults when full: Docker's default is 64 MB). That is
+/// the machine's limit, not a bug of the run: an input error (exit 2) saying where, how full
+/// and what to do.
+pub(crate) fn shm_exhausted(who: &str, s: &ExitStatus) -> Option<anyhow::Error> {
+    use std::os::unix::process::ExitStatusExt;
+    (s.signal() == Some(libc::SIGBUS)).then(|| {
+        crate::InputError(format!(
+            "{who} was killed by SIGBUS: the shared memory in {SHM_DIR} ran out ({}). Give {SHM_DIR} \
+             more room (Docker: `--shm-size=1g`), or train with --in-process, which needs no shared memory",
+            shm_usage()
+        ))
+        .into()
+    })
+}
+
+/// `/dev/shm`'s free and total space, and what iceoryx2's segments there reserve.
+fn shm_usage() -> String {
+    let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
+    let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
+    let path = std::ffi::CString::new(SHM_DIR).expect("no NUL");
+    // SAFETY: statvfs(3) fills `st` for a NUL-terminated path.
+    let space = if unsafe { libc::statvfs(path.as_ptr(), &mut st) } == 0 {
+        let frsize = st.f_frsize as u64;
+        format!("{:.1} MiB free of {:.1} MiB", mib(st.f_bavail as u64 * frsize), mib(st.f_blocks as u64 * frsize))
+    } else {
+        "its size is unknown".into()
+    };
+    let reserved: u64 = std::fs::read_dir(SHM_DIR)
+        .map(|d| {
+            d.filter_map(|e| e.ok())
+                .filter(|e| e.file_name().to_string_lossy().starts_with("iox2_"))
+                .filter_map(|e| e.metadata().ok())
+                .map(|m| m.len())
+                .sum()
+        })
+        .unwrap_or(0);
+    format!("{space}; iceoryx2's segments there reserve {:.1} MiB, of which the pages touched must fit", mib(reserved))
 }
 
 /// Reads the learner's remaining lines (until its stdout closes, or 200 ms of silence).
@@ -283,8 +330,20 @@ pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Re
             node.try_cleanup_dead_nodes();
             bail!("the multi-host bridge failed: {e}");
         }
-        workers.check(false)?;
+        if let Err(e) = workers.check(false) {
+            let mut all = workers.running();
+            all.push(&mut learner);
+            stop_all(&mut all, Duration::from_secs(5));
+            node.try_cleanup_dead_nodes();
+            return Err(e);
+        }
     };
+    // Said with /dev/shm as the learner left it (before the dead nodes' segments are removed).
+    if let Some(e) = shm_exhausted("the learner", &status) {
+        stop_all(&mut workers.running(), Duration::from_secs(3));
+        node.try_cleanup_dead_nodes();
+        return Err(e);
+    }
     drain_lines(&rx, &mut out, &mut progress);
     // Workers leave by themselves once the learner announces the end; give them a moment.
     out.restarts = workers.restarts;
