@@ -211,6 +211,7 @@ pub(crate) fn shm_exhausted(who: &str, s: &ExitStatus) -> Option<anyhow::Error> 
 /// `/dev/shm`'s free and total space, and what iceoryx2's segments there reserve.
 fn shm_usage() -> String {
     let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
+    // SAFETY: `statvfs` is a plain C struct of integers, for which all zeros is a valid value.
     let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
     let path = std::ffi::CString::new(SHM_DIR).expect("no NUL");
     // SAFETY: statvfs(3) fills `st` for a NUL-terminated path.
