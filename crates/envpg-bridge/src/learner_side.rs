@@ -189,16 +189,10 @@ impl LearnerBridge {
                 let sent = match answer {
                     Ok(b) => query.reply(JOIN_KEY, b).wait(),
                     Err(e) => {
-                        let mut sh = s.lock().expect("bridge state");
-                        if sh.joins_refused == 0 {
-                            tracing::warn!(
-                                "refusing a join request: {e} (further ones are counted in the result's details)"
-                            );
-                        } else {
-                            tracing::debug!("refusing a join request: {e}");
-                        }
-                        sh.joins_refused += 1;
-                        drop(sh);
+                        dropped(
+                            &mut s.lock().expect("bridge state").joins_refused,
+                            format_args!("a join request ({e})"),
+                        );
                         query.reply_err(e).wait()
                     }
                 };

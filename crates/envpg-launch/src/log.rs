@@ -28,11 +28,7 @@ pub fn keep_in(dir: &Path) {
 
 /// Appends `line` to the run's log file (if kept) without printing it.
 pub fn to_file(line: &str) {
-    if let Some(f) = FILE.get()
-        && let Ok(mut f) = f.lock()
-    {
-        let _ = f.write_all(format!("{line}\n").as_bytes());
-    }
+    let _ = LogFile.write_all(format!("{line}\n").as_bytes());
 }
 
 /// A writer to the run's log file (nothing until [`keep_in`]).

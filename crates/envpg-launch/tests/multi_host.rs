@@ -315,6 +315,22 @@ fn cutting_the_link_mid_run_keeps_the_result_as_the_learner_waits_for_the_host()
     cut_mid_run(0);
 }
 
+/// Runs a worker host that the learner at `hosts` must turn away (`extra` says why), under a
+/// watchdog; returns its exit code and stderr.
+fn refused_worker_host(hosts: &Hosts, extra: &[&str], what: &str) -> (Option<i32>, String) {
+    let o = wait(
+        launcher()
+            .args(["worker", "--connect", &format!("tcp/{}", hosts.learner_addr)])
+            .args(extra)
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+        Duration::from_secs(90),
+        what,
+    );
+    (o.status.code(), text(&o.stderr))
+}
+
 #[test]
 fn a_worker_host_of_another_protocol_version_is_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -323,17 +339,8 @@ fn a_worker_host_of_another_protocol_version_is_refused() {
     let hosts = Hosts::loopback();
     let (args, out) = learner_args(dir.path(), 30, 0, &hosts, &[]);
     let learner = hosts.learner(&args);
-    let o = wait(
-        launcher()
-            .args(["worker", "--connect", &format!("tcp/{}", hosts.learner_addr), "--protocol-version", "99"])
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
-        Duration::from_secs(90),
-        "worker host of another version",
-    );
-    let err = text(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let (code, err) = refused_worker_host(&hosts, &["--protocol-version", "99"], "worker host of another version");
+    assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("v2") && err.contains("v99"), "{err}");
     // The run is not corrupted: a host of the right version joins and it ends as in-process.
     let remote = hosts.worker_host(1);
@@ -472,17 +479,9 @@ fn a_rogue_host_changes_nothing() {
     };
     let remote = hosts.worker_host(1);
     // A host asking for more worker ids than a host gets is refused by the learner host.
-    let o = wait(
-        launcher()
-            .args(["worker", "--connect", &format!("tcp/{}", hosts.learner_addr), "--workers", "5000"])
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
-        Duration::from_secs(90),
-        "worker host of too many workers",
-    );
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
-    assert!(text(&o.stderr).contains("refused this host: a host runs 1 to 1000 workers"), "{}", text(&o.stderr));
+    let (code, err) = refused_worker_host(&hosts, &["--workers", "5000"], "worker host of too many workers");
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("refused this host: a host runs 1 to 1000 workers"), "{err}");
     let lo = wait(learner, Duration::from_secs(180), "learner host");
     let ro = wait(remote, Duration::from_secs(60), "worker host");
     stop.store(true, std::sync::atomic::Ordering::Relaxed);

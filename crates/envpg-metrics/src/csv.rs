@@ -29,11 +29,9 @@ impl CsvWriter {
             text.push_str(&row);
             text.push('\n');
         }
-        // Rewritten whole (it is small, and only at start): a reader never sees half a file
-        // for long, and an interrupted rewrite leaves the rows it had.
-        let tmp = path.with_extension("csv.tmp");
-        std::fs::write(&tmp, text).map_err(io_err(&tmp))?;
-        std::fs::rename(&tmp, path).map_err(io_err(path))?;
+        // Rewritten whole (it is small, and only at start), atomically: an interrupted rewrite
+        // leaves the rows it had.
+        envpg_core::io::write_atomic(path, text.as_bytes()).map_err(io_err(path))?;
         let file = OpenOptions::new().append(true).open(path).map_err(io_err(path))?;
         Ok(Self { path: path.to_owned(), file })
     }
@@ -73,15 +71,14 @@ fn kept_rows(path: &Path, header: &str, k: u64) -> Result<Vec<String>, MetricsEr
         Some(h) if h == header => {}
         _ => return Ok(Vec::new()),
     }
+    let columns = header.split(',').count();
     let mut rows = Vec::new();
     for line in lines {
         let line = line.map_err(io_err(path))?;
         // A torn last line (killed mid-write) or a later iteration is not kept.
-        let fields = line.split(',').count();
         let row_k = line.split(',').next().and_then(|f| f.parse::<u64>().ok());
-        match row_k {
-            Some(rk) if rk < k && fields == header.split(',').count() => rows.push(line),
-            _ => {}
+        if row_k.is_some_and(|rk| rk < k) && line.split(',').count() == columns {
+            rows.push(line);
         }
     }
     Ok(rows)

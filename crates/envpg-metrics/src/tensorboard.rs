@@ -144,41 +144,41 @@ impl EventWriter {
     }
 }
 
-/// Reads the events of a file written by [`EventWriter`], checking every frame's checksums
-/// (for tests and tools; TensorBoard reads the files itself).
-pub fn read_events(path: &Path) -> Result<Vec<Event>, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut events = Vec::new();
-    let mut rest = bytes.as_slice();
-    while !rest.is_empty() {
-        let take = |rest: &mut &[u8], n: usize| -> Result<Vec<u8>, String> {
-            if rest.len() < n {
-                return Err("truncated frame".into());
-            }
-            let (a, b) = rest.split_at(n);
-            *rest = b;
-            Ok(a.to_vec())
-        };
-        let len = take(&mut rest, 8)?;
-        let crc = u32::from_le_bytes(take(&mut rest, 4)?.try_into().expect("4 bytes"));
-        if crc != masked_crc32c(&len) {
-            return Err("length checksum mismatch".into());
-        }
-        let n = u64::from_le_bytes(len.try_into().expect("8 bytes"));
-        let n = usize::try_from(n).map_err(|_| "frame too long".to_string())?;
-        let payload = take(&mut rest, n)?;
-        let crc = u32::from_le_bytes(take(&mut rest, 4)?.try_into().expect("4 bytes"));
-        if crc != masked_crc32c(&payload) {
-            return Err("payload checksum mismatch".into());
-        }
-        events.push(Event::decode(payload.as_slice()).map_err(|e| e.to_string())?);
-    }
-    Ok(events)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Reads the events of a file written by [`EventWriter`], checking every frame's checksums
+    /// (TensorBoard reads the files itself; this checks what it will read).
+    fn read_events(path: &Path) -> Result<Vec<Event>, String> {
+        let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut events = Vec::new();
+        let mut rest = bytes.as_slice();
+        while !rest.is_empty() {
+            let take = |rest: &mut &[u8], n: usize| -> Result<Vec<u8>, String> {
+                if rest.len() < n {
+                    return Err("truncated frame".into());
+                }
+                let (a, b) = rest.split_at(n);
+                *rest = b;
+                Ok(a.to_vec())
+            };
+            let len = take(&mut rest, 8)?;
+            let crc = u32::from_le_bytes(take(&mut rest, 4)?.try_into().expect("4 bytes"));
+            if crc != masked_crc32c(&len) {
+                return Err("length checksum mismatch".into());
+            }
+            let n = u64::from_le_bytes(len.try_into().expect("8 bytes"));
+            let n = usize::try_from(n).map_err(|_| "frame too long".to_string())?;
+            let payload = take(&mut rest, n)?;
+            let crc = u32::from_le_bytes(take(&mut rest, 4)?.try_into().expect("4 bytes"));
+            if crc != masked_crc32c(&payload) {
+                return Err("payload checksum mismatch".into());
+            }
+            events.push(Event::decode(payload.as_slice()).map_err(|e| e.to_string())?);
+        }
+        Ok(events)
+    }
 
     #[test]
     fn crc32c_is_castagnoli_and_masked_as_tfrecord_does() {
