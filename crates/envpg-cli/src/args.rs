@@ -1,9 +1,8 @@
 //! Shared argument parsing, the registry the tools run with, and error → exit-code mapping.
 
-use std::process::ExitCode;
-
 use anyhow::{Result, bail};
 use clap::Args;
+use envpg_core::exit::{self, Failure};
 use envpg_core::{LoadedEnv, Registry, ResultFile};
 
 /// What every command runs with: the registered environments, and the launcher binary that
@@ -39,25 +38,19 @@ pub fn init_tracing() {
     let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).try_init();
 }
 
-/// Prints the error chain and maps it to an exit code.
-pub fn exit_code(result: Result<()>) -> ExitCode {
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            let input = e.chain().any(|c| {
-                c.is::<InputError>()
-                    || c.is::<envpg_core::InstanceError>()
-                    || c.is::<envpg_core::result::ResultError>()
-                    || c.is::<envpg_core::ZetaError>()
-                    || c.is::<envpg_core::NoModel>()
-                    || c.is::<envpg_ac::config::PresetError>()
-                    || c.is::<envpg_ac::config::ConfigError>()
-                    || matches!(c.downcast_ref::<envpg_report::ReportError>(), Some(envpg_report::ReportError::Plan(_)))
-            });
-            if input { ExitCode::from(2) } else { ExitCode::from(1) }
-        }
-    }
+/// Maps an error to the program's exit code (2 for bad input, 1 otherwise) and its message.
+pub fn failure(e: &anyhow::Error) -> Failure {
+    let input = e.chain().any(|c| {
+        c.is::<InputError>()
+            || c.is::<envpg_core::InstanceError>()
+            || c.is::<envpg_core::result::ResultError>()
+            || c.is::<envpg_core::ZetaError>()
+            || c.is::<envpg_core::NoModel>()
+            || c.is::<envpg_ac::config::PresetError>()
+            || c.is::<envpg_ac::config::ConfigError>()
+            || matches!(c.downcast_ref::<envpg_report::ReportError>(), Some(envpg_report::ReportError::Plan(_)))
+    });
+    Failure { code: if input { exit::INPUT } else { exit::FAILED }, message: format!("{e:#}") }
 }
 
 /// Which instance, with which parameters.

@@ -33,6 +33,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use envpg_core::Registry;
+use envpg_core::exit::{self, Failure};
 
 /// Tools for envpg: model-based oracle, exact evaluation, instances, experiments and figures.
 #[derive(Debug, Parser)]
@@ -74,8 +75,41 @@ pub fn main(registry: Registry) -> ExitCode {
 /// `--workers` runs: one built with the same environments.
 pub fn main_with_launcher(registry: Registry, launcher: &str) -> ExitCode {
     args::init_tracing();
+    match execute(Cli::parse(), registry, launcher) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("error: {}", f.message);
+            ExitCode::from(f.code)
+        }
+    }
+}
+
+/// Runs the `envpg` program on `args` (the program's name first, as [`std::env::args`]) in
+/// this process, returning how it failed instead of exiting: for front ends such as the Python
+/// package. Help and version requests print and succeed.
+pub fn run_args<I, T>(registry: Registry, launcher: &str, args: I) -> Result<(), Failure>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    args::init_tracing();
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            print!("{e}");
+            return Ok(());
+        }
+        Err(e) => {
+            let text = e.render().to_string();
+            let message = text.trim_end().strip_prefix("error: ").unwrap_or(text.trim_end()).to_owned();
+            return Err(Failure { code: exit::INPUT, message });
+        }
+    };
+    execute(cli, registry, launcher)
+}
+
+fn execute(cli: Cli, registry: Registry, launcher: &str) -> Result<(), Failure> {
     envpg_ac::memory::retain_freed_memory();
-    let cli = Cli::parse();
     let tools = args::Tools { registry, launcher: launcher.to_owned() };
     let result = match cli.command {
         Command::Envs => cmd_envs::run(&tools),
@@ -87,5 +121,5 @@ pub fn main_with_launcher(registry: Registry, launcher: &str) -> ExitCode {
         Command::Sweep(a) => cmd_sweep::run(a, &tools),
         Command::Bench(c) => cmd_bench::run(c, &tools),
     };
-    args::exit_code(result)
+    result.map_err(|e| args::failure(&e))
 }

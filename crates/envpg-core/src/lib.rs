@@ -57,6 +57,7 @@
 
 pub mod checks;
 pub mod env;
+pub mod exit;
 pub mod features;
 pub mod instance;
 pub mod io;

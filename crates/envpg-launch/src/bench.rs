@@ -140,12 +140,16 @@ fn ipc_workers(env: &LoadedEnv, spec: &RunSpec, cost_us: u64, workers: usize, di
         tensorboard: None,
     };
     run.save(dir)?;
-    let exe = std::env::current_exe()?;
     let mut children: Vec<std::process::Child> = (0..workers)
         .map(|i| {
-            std::process::Command::new(&exe)
-                .args(["worker", "--run-dir", &dir.display().to_string(), "--worker-id", &i.to_string()])
-                .spawn()
+            crate::program::command(&[
+                "worker".into(),
+                "--run-dir".into(),
+                dir.display().to_string(),
+                "--worker-id".into(),
+                i.to_string(),
+            ])?
+            .spawn()
         })
         .collect::<std::io::Result<_>>()?;
     let start = Instant::now();

@@ -28,6 +28,7 @@ mod in_process;
 mod log;
 mod metrics;
 mod multi_host;
+mod program;
 mod roles;
 mod run_dir;
 mod supervise;
@@ -39,7 +40,9 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use envpg_core::Registry;
+use envpg_core::exit::{self, Failure};
 use indicatif::{ProgressBar, ProgressStyle};
+pub use program::{EXIT_ENV, EnvFailed, Program, abort_env};
 
 use crate::run_dir::RunFile;
 
@@ -176,6 +179,44 @@ impl std::error::Error for InputError {}
 /// The `envpg-launch` program for the environments of `registry`: parses the command line,
 /// runs, and maps errors to exit codes (2 for bad input, 1 for a failed run, 130 interrupted).
 pub fn main(registry: Registry) -> ExitCode {
+    init();
+    match execute(Cli::parse(), &registry) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("error: {}", f.message);
+            ExitCode::from(f.code)
+        }
+    }
+}
+
+/// Runs the `envpg-launch` program on `args` (the program's name first, as
+/// [`std::env::args`]) in this process, starting its learner and worker processes with
+/// `program`, and returns how it failed instead of exiting: for front ends such as the Python
+/// package. Help and version requests print and succeed.
+pub fn run_args<I, T>(registry: Registry, program: Program, args: I) -> Result<(), Failure>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    program::set(program);
+    init();
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            print!("{e}");
+            return Ok(());
+        }
+        Err(e) => {
+            let text = e.render().to_string();
+            let message = text.trim_end().strip_prefix("error: ").unwrap_or(text.trim_end()).to_owned();
+            return Err(Failure { code: exit::INPUT, message });
+        }
+    };
+    execute(cli, &registry)
+}
+
+/// Logging and memory settings of every process of a run.
+fn init() {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         // zenoh's own warnings (e.g. about scouting while a learner host is not up yet) are
         // noise here: the bridge reports what matters itself.
@@ -191,9 +232,12 @@ pub fn main(registry: Registry) -> ExitCode {
     }
     envpg_transport::quiet_iceoryx2_logs();
     envpg_ac::memory::retain_freed_memory();
-    let cli = Cli::parse();
+}
+
+/// Runs one parsed command line; the error is logged here (and printed by the caller).
+fn execute(cli: Cli, registry: &Registry) -> Result<(), Failure> {
     let result = match cli.role {
-        Some(Role::Learner { run_dir, resume }) => roles::learner(&run_dir, resume, &registry),
+        Some(Role::Learner { run_dir, resume }) => roles::learner(&run_dir, resume, registry),
         Some(Role::Worker {
             connect: Some(endpoint),
             workers,
@@ -209,7 +253,7 @@ pub fn main(registry: Registry) -> ExitCode {
                 link_timeout: Duration::from_secs(link_timeout_s),
                 protocol: protocol_version,
             },
-            &registry,
+            registry,
         ),
         Some(Role::Worker {
             run_dir: Some(run_dir),
@@ -217,35 +261,32 @@ pub fn main(registry: Registry) -> ExitCode {
             incarnation,
             protocol_version,
             ..
-        }) => roles::worker(&run_dir, worker_id, incarnation, protocol_version, &registry).map(|_| ()),
+        }) => roles::worker(&run_dir, worker_id, incarnation, protocol_version, registry).map(|_| ()),
         Some(Role::Worker { .. }) => {
             Err(InputError("`envpg-launch worker` needs --connect ENDPOINT (the learner host's --listen)".into())
                 .into())
         }
-        None => run(cli.train, cli.launch, &registry),
+        None => run(cli.train, cli.launch, registry),
     };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            log::to_file(&format!("error: {e:#}"));
-            if is_interrupt(&e) {
-                return ExitCode::from(130);
-            }
-            let input = e.chain().any(|c| {
-                c.is::<InputError>()
-                    || c.is::<envpg_core::InstanceError>()
-                    || c.is::<envpg_core::result::ResultError>()
-                    || c.is::<envpg_core::ZetaError>()
-                    || c.is::<envpg_ac::config::ConfigError>()
-                    || c.is::<envpg_ac::config::PresetError>()
-                    || c.is::<envpg_protocol::CheckpointError>()
-                    || c.is::<multi_host::NotBuilt>()
-                    || multi_host::is_input_error(c)
-            });
-            ExitCode::from(if input { 2 } else { 1 })
+    result.map_err(|e| {
+        log::to_file(&format!("error: {e:#}"));
+        let message = format!("{e:#}");
+        if is_interrupt(&e) {
+            return Failure { code: exit::INTERRUPTED, message };
         }
-    }
+        let input = e.chain().any(|c| {
+            c.is::<InputError>()
+                || c.is::<envpg_core::InstanceError>()
+                || c.is::<envpg_core::result::ResultError>()
+                || c.is::<envpg_core::ZetaError>()
+                || c.is::<envpg_ac::config::ConfigError>()
+                || c.is::<envpg_ac::config::PresetError>()
+                || c.is::<envpg_protocol::CheckpointError>()
+                || c.is::<multi_host::NotBuilt>()
+                || multi_host::is_input_error(c)
+        });
+        Failure { code: if input { exit::INPUT } else { exit::FAILED }, message }
+    })
 }
 
 /// Whether `e` is an interrupted run (SIGINT/SIGTERM), exit code 130.
@@ -266,10 +307,7 @@ fn with_resume_hint(e: anyhow::Error, run: &RunFile, dir: &std::path::Path) -> a
     if !is_interrupt(&e) {
         return e;
     }
-    let exe = std::env::current_exe()
-        .ok()
-        .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
-        .unwrap_or_else(|| "envpg-launch".into());
+    let exe = program::get().map_or_else(|_| "envpg-launch".into(), |p| p.display);
     match run.load_checkpoint(dir) {
         Ok(c) => eprintln!(
             "kept: checkpoint at iteration {} of {} in {}\ncontinue the run with: {exe} --resume {}",

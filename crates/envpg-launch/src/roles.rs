@@ -22,6 +22,7 @@ pub fn progress_line(p: &envpg_ac::trainer::Progress) -> String {
 /// The learner process.
 pub fn learner(dir: &Path, resume: bool, registry: &Registry) -> Result<()> {
     crate::log::keep_in(dir);
+    crate::program::set_run_dir(dir);
     let run = RunFile::load(dir)?;
     let env = run.spec.load(registry)?;
     let resume_from = if resume { Some(run.load_checkpoint(dir)?) } else { None };
@@ -51,6 +52,7 @@ pub fn learner(dir: &Path, resume: bool, registry: &Registry) -> Result<()> {
 pub fn worker(dir: &Path, worker_id: u32, incarnation: u64, protocol: u32, registry: &Registry) -> Result<WorkerExit> {
     leave_with_parent();
     crate::log::keep_in(dir);
+    crate::program::set_run_dir(dir);
     let run = RunFile::load(dir)?;
     let env = run.spec.load(registry)?;
     let cfg = WorkerConfig {

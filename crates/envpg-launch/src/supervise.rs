@@ -3,7 +3,7 @@
 
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::process::{Child, ExitStatus, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -60,11 +60,10 @@ pub(crate) fn terminate(child: &Child) {
     }
 }
 
-/// Starts this executable with `args` (stdout piped if asked).
+/// Starts this launcher program ([`crate::program`]) with `args` (stdout piped if asked).
 pub(crate) fn spawn(args: &[String], stdout: bool) -> Result<Child> {
-    let exe = std::env::current_exe()?;
-    let mut cmd = Command::new(exe);
-    cmd.args(args).stdin(Stdio::null());
+    let mut cmd = crate::program::command(args)?;
+    cmd.stdin(Stdio::null());
     if stdout {
         cmd.stdout(Stdio::piped());
     }
@@ -123,6 +122,9 @@ impl WorkerPool {
             if let Some(e) = shm_exhausted(&format!("worker {i}"), &s) {
                 // A replacement would die the same way.
                 return Err(e);
+            }
+            if s.code() == Some(i32::from(crate::program::EXIT_ENV)) {
+                return Err(crate::program::env_failure(&self.dir, &format!("worker {i}")));
             }
             if s.success() || run_over {
                 // It saw the end of the run.
@@ -344,6 +346,11 @@ pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Re
         stop_all(&mut workers.running(), Duration::from_secs(3));
         node.try_cleanup_dead_nodes();
         return Err(e);
+    }
+    if status.code() == Some(i32::from(crate::program::EXIT_ENV)) {
+        stop_all(&mut workers.running(), Duration::from_secs(3));
+        node.try_cleanup_dead_nodes();
+        return Err(crate::program::env_failure(&l.dir, "the learner"));
     }
     drain_lines(&rx, &mut out, &mut progress);
     // Workers leave by themselves once the learner announces the end; give them a moment.

@@ -1,0 +1,279 @@
+"""Training, the oracle and exact evaluation: the CLI's programs run on argument lists built
+from keyword arguments, so every setting means what its ``--option`` means and is checked the
+same way."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import secrets
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from . import _native
+from ._instance import Instance
+from ._native import EnvError, InputError, RunError
+from ._pyenv import instance_of, python_path
+from ._result import Result, load_result
+
+#: How the launcher starts a run's learner and workers from Python.
+PROGRAM = [sys.executable, "-m", "envpg._launch"]
+DISPLAY = "python -m envpg._launch"
+
+
+def _flags(settings: Mapping[str, Any]) -> list[str]:
+    """``--option value`` arguments of keyword settings (``polish_iterations=0`` →
+    ``--polish-iterations 0``; ``True`` → a bare flag; lists comma-separated)."""
+    out: list[str] = []
+    for key, value in settings.items():
+        if value is None or value is False:
+            continue
+        flag = "--" + key.replace("_", "-")
+        if value is True:
+            out.append(flag)
+        elif isinstance(value, (list, tuple)):
+            out += [flag, ",".join(_text(v, key) for v in value)]
+        else:
+            out += [flag, _text(value, key)]
+    return out
+
+
+def _text(value: Any, key: str) -> str:
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise InputError(f"{key}={value!r}: must be finite")
+        return repr(value)
+    if isinstance(value, (int, str, os.PathLike)):
+        return os.fspath(value) if isinstance(value, os.PathLike) else str(value)
+    raise InputError(f"{key}={value!r}: a setting is a number, a string, a bool or a list of numbers")
+
+
+@contextlib.contextmanager
+def _instance_arg(instance: Any) -> Iterator[str]:
+    """The ``--instance`` argument for a name, a path, an :class:`Instance` or a Python
+    environment object (the last two through a temporary file)."""
+    if isinstance(instance, str):
+        yield instance
+        return
+    if isinstance(instance, os.PathLike):
+        yield os.fspath(instance)
+        return
+    data = instance.data if isinstance(instance, Instance) else instance_of(instance)
+    with tempfile.TemporaryDirectory(prefix="envpg-") as d:
+        path = Path(d) / "instance.json"
+        path.write_text(json.dumps(data))
+        yield str(path)
+
+
+@contextlib.contextmanager
+def _run_context() -> Iterator[None]:
+    """What a run changes in this interpreter, restored afterwards: ``PYTHONPATH`` (the run's
+    processes import what this interpreter can) and the SIGINT/SIGTERM handlers (the launcher
+    takes them while it supervises)."""
+    old_path = os.environ.get("PYTHONPATH")
+    os.environ["PYTHONPATH"] = python_path()
+    main = threading.current_thread() is threading.main_thread()
+    handlers = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)} if main else {}
+    try:
+        yield
+    finally:
+        if old_path is None:
+            os.environ.pop("PYTHONPATH", None)
+        else:
+            os.environ["PYTHONPATH"] = old_path
+        for s, h in handlers.items():
+            signal.signal(s, h if h is not None else signal.SIG_DFL)
+
+
+def _runs_dir() -> Path:
+    base = os.environ.get("ENVPG_RUNS_DIR")
+    return Path(base) if base else Path.cwd() / "runs"
+
+
+class _Progress:
+    """A tqdm bar fed from the run's ``metrics.csv`` (a row per completed iteration), if tqdm is
+    installed and progress is wanted."""
+
+    def __init__(self, run_dir: Path, enabled: bool | None):
+        self.run_dir = run_dir
+        self.stop = threading.Event()
+        self.thread = None
+        if enabled is False:
+            return
+        try:
+            from tqdm.auto import tqdm
+        except ImportError:
+            if enabled:
+                raise InputError("progress=True needs tqdm (pip install tqdm)") from None
+            return
+        self.tqdm = tqdm
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        bar = None
+        shown = 0
+        while True:
+            done = self.stop.wait(0.2)
+            try:
+                if bar is None:
+                    total = json.loads((self.run_dir / "run.json").read_text())["spec"]["config"]["iterations"]
+                    bar = self.tqdm(total=total, desc="envpg", unit="it")
+                with open(self.run_dir / "metrics.csv") as f:
+                    rows = sum(1 for _ in f) - 1
+                if rows > shown:
+                    bar.update(rows - shown)
+                    shown = rows
+            except (OSError, ValueError, KeyError):
+                pass
+            if done:
+                break
+        if bar is not None:
+            bar.close()
+
+    def close(self) -> None:
+        if self.thread is not None:
+            self.stop.set()
+            self.thread.join()
+
+
+def _launch(argv: list[str], run_dir: Path, progress: bool | None) -> None:
+    bar = _Progress(run_dir, progress)
+    try:
+        with _run_context():
+            _native.launch(["envpg-launch", *argv], PROGRAM, DISPLAY)
+    finally:
+        bar.close()
+
+
+def train(
+    instance: Any = "uav271",
+    *,
+    workers: int = 2,
+    seed: int = 1,
+    preset: str | None = None,
+    in_process: bool = False,
+    out: str | os.PathLike[str] | None = None,
+    run_dir: str | os.PathLike[str] | None = None,
+    progress: bool | None = None,
+    **settings: Any,
+) -> Result:
+    """Trains a policy and the design together with Algorithm 1 — exactly ``envpg-launch``:
+    the same seed and settings give the same result, bit for bit.
+
+    ``instance`` is a bundled name, a path, an :class:`Instance`, or an environment object
+    written in Python (:class:`envpg.Env`), whose workers are Python processes stepping it.
+    ``workers`` rollout-worker processes (threads with ``in_process=True``) run beside the
+    learner. ``settings`` are ``envpg-launch``'s options by keyword (``iterations=200``,
+    ``polish_iterations=0``, ``hidden=[64, 64]``, ``checkpoint_every=10``,
+    ``tensorboard="tb"``, ``env_param=["kappa=0.9"]``); an unknown one raises
+    :class:`InputError`.
+
+    The run lives in ``run_dir`` (default ``runs/<id>`` under ``$ENVPG_RUNS_DIR`` or the
+    current directory: run.json, metrics.csv, log.txt, checkpoint.bin, result.json); the
+    result is also written to ``out`` if given. The GIL is released while it runs; with tqdm
+    installed a progress bar follows the iterations (``progress=False``: none).
+
+    Raises :class:`InputError` (bad input, before any work), :class:`EnvError` (a Python
+    environment raised or returned garbage: its traceback), :class:`RunError`, or
+    ``KeyboardInterrupt`` on Ctrl-C — every process of the run stopped, its shared memory
+    removed, a checkpoint kept for :func:`resume`."""
+    if not isinstance(instance, (str, os.PathLike, Instance)) and in_process:
+        raise InputError(
+            "a Python environment is stepped by worker processes: train it without in_process=True"
+        )
+    if isinstance(workers, bool) or not isinstance(workers, int):
+        raise InputError(f"workers={workers!r}: must be an integer")
+    directory = Path(run_dir) if run_dir is not None else _runs_dir() / secrets.token_hex(6)
+    with _instance_arg(instance) as spec:
+        argv = ["--instance", spec, "--workers", str(workers), "--seed", str(seed), "--quiet"]
+        argv += ["--run-dir", str(directory), "--out", str(Path(out) if out is not None else directory / "result.json")]
+        argv += _flags({"preset": preset, "in_process": in_process, **settings})
+        _launch(argv, directory, progress)
+    result = load_result(Path(out) if out is not None else directory / "result.json")
+    result.run_dir = directory
+    return result
+
+
+def resume(run_dir: str | os.PathLike[str], *, progress: bool | None = None) -> Result:
+    """Continues an interrupted run from its last checkpoint (as ``envpg-launch --resume
+    DIR``); the result is the one the run would have given uninterrupted."""
+    directory = Path(run_dir)
+    _launch(["--resume", str(directory)], directory, progress)
+    result = load_result(directory / "result.json")
+    result.run_dir = directory
+    return result
+
+
+def oracle(
+    instance: Any = "uav271",
+    *,
+    restarts: int = 16,
+    seed: int = 1,
+    out: str | os.PathLike[str] | None = None,
+    **settings: Any,
+) -> Result:
+    """The model-based oracle: annealed co-design with exact gradients, best of ``restarts``
+    — exactly ``envpg oracle``. ``settings`` are its options by keyword (``strategy="warm"``,
+    ``threads=1``, ``init=[...]``). Runs in a child process, so Ctrl-C stops it at once."""
+    with tempfile.TemporaryDirectory(prefix="envpg-oracle-") as d:
+        target = Path(out) if out is not None else Path(d) / "oracle.json"
+        with _instance_arg(instance) as spec:
+            argv = ["oracle", "--instance", spec, "--restarts", str(restarts), "--seed", str(seed)]
+            argv += ["--out", str(target), *_flags(settings)]
+            _tools(argv)
+        result = load_result(target)
+        if out is None:
+            result.path = None
+        return result
+
+
+def _tools(argv: list[str]) -> str:
+    """Runs ``envpg ARGV`` as ``python -m envpg._tools``; returns its stdout, raises on failure
+    with its error message."""
+    env = dict(os.environ, PYTHONPATH=python_path())
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "envpg._tools", *argv],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    try:
+        stdout, stderr = proc.communicate()
+    except BaseException:
+        proc.terminate()
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        raise
+    if proc.returncode == 0:
+        if stderr:
+            sys.stderr.write(stderr)
+        return stdout
+    message = "\n".join(line.removeprefix("error: ") for line in stderr.strip().splitlines()) or f"exit code {proc.returncode}"
+    if proc.returncode == 2:
+        raise InputError(message)
+    if proc.returncode == 4:
+        raise EnvError(message)
+    raise RunError(message)
+
+
+def evaluate(result: Result | str | os.PathLike[str]) -> float | None:
+    """The exact J of a result (a :class:`Result` or a result file), recomputed from its own
+    contents — environment, full instance, ζ and policy — not read from its ``J``. ``None``
+    when the policy does not terminate from some state. Raises :class:`InputError` for an
+    environment without a model."""
+    if isinstance(result, Result):
+        return result.evaluate()
+    return load_result(result).evaluate()

@@ -1,0 +1,201 @@
+//! # envpg-py
+//!
+//! `envpg._native`, the Rust core of the `envpg` Python package (the Python side is in
+//! `python/envpg`): the launcher and the tools run in-process on argument lists, built with
+//! envpg's environments plus [`pyenv::PyEnv`] (environments written in Python), and a
+//! [`Sampler`] for the Gymnasium adapter.
+//!
+//! Data flow: `envpg.train(...)` → [`launch`] (GIL released) → `envpg_launch::run_args` →
+//! learner and worker processes started as `python -m envpg._launch …` → [`launch_main`] in
+//! each of them → the same Rust learner and worker loops as `envpg-launch`, a Python
+//! environment's `step` called back with the GIL. Results are `envpg.result.v2` files, read and
+//! written by the same code as the CLI's.
+
+mod pyenv;
+mod sampler;
+
+use std::panic::AssertUnwindSafe;
+
+use envpg_core::exit::{self, Failure};
+use envpg_core::{Registry, ResultFile};
+use pyo3::create_exception;
+use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+
+pub use pyenv::{PyEnv, Rng};
+pub use sampler::Sampler;
+
+create_exception!(_native, InputError, PyValueError, "Bad input: arguments, settings, instance or result files.");
+create_exception!(_native, RunError, PyRuntimeError, "A run or a computation failed.");
+create_exception!(_native, EnvError, RunError, "The environment failed (an exception or an invalid return).");
+
+/// envpg's environments and the `python` environment.
+fn registry() -> Registry {
+    envpg_envs::registry().register::<PyEnv>()
+}
+
+/// A [`Failure`] as the Python exception for its exit code.
+fn raise(f: Failure) -> PyErr {
+    match f.code {
+        exit::INPUT => InputError::new_err(f.message),
+        exit::INTERRUPTED => PyKeyboardInterrupt::new_err(f.message),
+        _ if f.message.contains("the environment failed: ") => EnvError::new_err(f.message),
+        _ => RunError::new_err(f.message),
+    }
+}
+
+/// Runs `f` (with the GIL released), turning a failing Python environment's unwinding
+/// ([`pyenv::fail`]) into `EnvError`.
+fn guarded<T: Send>(py: Python<'_>, f: impl FnOnce() -> Result<T, Failure> + Send) -> PyResult<T> {
+    quiet_env_panics();
+    match py.detach(|| std::panic::catch_unwind(AssertUnwindSafe(f))) {
+        Ok(r) => r.map_err(raise),
+        Err(payload) => match payload.downcast::<pyenv::EnvPanic>() {
+            Ok(e) => Err(EnvError::new_err(format!("the environment failed: {}", e.0))),
+            Err(other) => std::panic::resume_unwind(other),
+        },
+    }
+}
+
+/// The panic hook stays quiet about [`pyenv::EnvPanic`] (it becomes an exception).
+fn quiet_env_panics() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let default = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if info.payload().downcast_ref::<pyenv::EnvPanic>().is_none() {
+                default(info);
+            }
+        }));
+    });
+}
+
+fn program(program: Vec<String>, display: String) -> PyResult<envpg_launch::Program> {
+    let mut it = program.into_iter();
+    let exe = it.next().ok_or_else(|| PyValueError::new_err("program: give the interpreter first"))?;
+    Ok(envpg_launch::Program { program: exe.into(), prefix: it.map(Into::into).collect(), display })
+}
+
+/// Runs `envpg-launch` on `argv` (its name first) in this process, starting its learner and
+/// workers with `program` (`[sys.executable, "-m", "envpg._launch"]`). Raises `InputError`,
+/// `RunError`, `EnvError` or `KeyboardInterrupt` as the run ends.
+#[pyfunction]
+fn launch(py: Python<'_>, argv: Vec<String>, program: Vec<String>, display: String) -> PyResult<()> {
+    let program = self::program(program, display)?;
+    guarded(py, move || envpg_launch::run_args(registry(), program, argv))
+}
+
+/// The `python -m envpg._launch` program (a run's learner and workers): returns the exit code.
+#[pyfunction]
+fn launch_main(py: Python<'_>, argv: Vec<String>, program: Vec<String>, display: String) -> PyResult<u8> {
+    pyenv::set_role_process();
+    let program = self::program(program, display)?;
+    Ok(py.detach(move || exit_code(envpg_launch::run_args(registry(), program, argv))))
+}
+
+/// The `python -m envpg._tools` program (the `envpg` tools): returns the exit code.
+#[pyfunction]
+fn tools_main(py: Python<'_>, argv: Vec<String>) -> u8 {
+    pyenv::set_role_process();
+    py.detach(move || exit_code(envpg_cli::run_args(registry(), "envpg-launch", argv)))
+}
+
+/// A program's exit code, its error printed as the CLI prints it.
+fn exit_code(r: Result<(), Failure>) -> u8 {
+    match r {
+        Ok(()) => 0,
+        Err(f) => {
+            eprintln!("error: {}", f.message);
+            f.code
+        }
+    }
+}
+
+/// An instance by bundled name or path, with parameter overrides: `(env, canonical JSON)`.
+#[pyfunction]
+fn load_instance(py: Python<'_>, spec: String, params: Vec<(String, f64)>) -> PyResult<(String, String)> {
+    guarded(py, move || {
+        let env = registry().load(&spec, &params).map_err(|e| Failure { code: exit::INPUT, message: e.to_string() })?;
+        Ok((env.name.to_owned(), env.instance.to_string()))
+    })
+}
+
+/// The registered environments (name, about, parameters with defaults) and bundled instances,
+/// as JSON.
+#[pyfunction]
+fn envs() -> String {
+    let r = registry();
+    let envs: Vec<_> = r
+        .envs()
+        .into_iter()
+        .map(|(name, about, params)| {
+            let params: serde_json::Map<_, _> = params
+                .iter()
+                .map(|p| (p.name.to_owned(), serde_json::json!({"default": p.default, "about": p.about})))
+                .collect();
+            serde_json::json!({"name": name, "about": about, "params": params})
+        })
+        .collect();
+    serde_json::json!({"envs": envs, "bundled": r.bundled()}).to_string()
+}
+
+/// Recomputes `(J, J_H)` of a result file's text exactly from its own contents (environment,
+/// instance, ζ, policy); `J` is `None` when the policy does not terminate from some state.
+#[pyfunction]
+fn evaluate(py: Python<'_>, result_json: String, origin: String) -> PyResult<(Option<f64>, Option<f64>)> {
+    guarded(py, move || {
+        let input = |e: String| Failure { code: exit::INPUT, message: format!("{origin}: {e}") };
+        let r = ResultFile::from_json_str(&result_json, &origin).map_err(|e| input(e.to_string()))?;
+        let env = r.load_env(&registry(), &origin).map_err(|e| input(e.to_string()))?;
+        let model = env.model().map_err(|e| input(e.to_string()))?;
+        let snap = envpg_model::Snapshot::build(model, &r.zeta);
+        let pi = envpg_core::policy::pairs_from_rows(model, &r.policy).map_err(|e| input(e.to_string()))?;
+        let j = envpg_model::evaluate(&snap, &pi, 0.0).ok().map(|v| v.j);
+        let j_h = match (&r.policy_soft, r.alpha_final) {
+            (Some(soft), Some(alpha)) => {
+                let pis = envpg_core::policy::pairs_from_rows(model, soft).map_err(|e| input(e.to_string()))?;
+                envpg_model::evaluate(&snap, &pis, alpha).ok().map(|v| v.j)
+            }
+            _ => None,
+        };
+        Ok((j, j_h))
+    })
+}
+
+/// Checks a result file's text against the schema and writes it to `path` atomically, as the
+/// CLI writes its results.
+#[pyfunction]
+fn save_result(py: Python<'_>, result_json: String, path: String) -> PyResult<()> {
+    guarded(py, move || {
+        let r = ResultFile::from_json_str(&result_json, &path)
+            .map_err(|e| Failure { code: exit::INPUT, message: e.to_string() })?;
+        r.save(&path).map_err(|e| Failure { code: exit::INPUT, message: format!("{path}: {e}") })
+    })
+}
+
+/// Checks a result file's text against the schema (v1 files are read as v2) and returns the
+/// v2 text.
+#[pyfunction]
+fn read_result(result_json: String, origin: String) -> PyResult<String> {
+    let r = ResultFile::from_json_str(&result_json, &origin).map_err(|e| InputError::new_err(e.to_string()))?;
+    serde_json::to_string(&r).map_err(|e| RunError::new_err(e.to_string()))
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(launch, m)?)?;
+    m.add_function(wrap_pyfunction!(launch_main, m)?)?;
+    m.add_function(wrap_pyfunction!(tools_main, m)?)?;
+    m.add_function(wrap_pyfunction!(load_instance, m)?)?;
+    m.add_function(wrap_pyfunction!(envs, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluate, m)?)?;
+    m.add_function(wrap_pyfunction!(save_result, m)?)?;
+    m.add_function(wrap_pyfunction!(read_result, m)?)?;
+    m.add_class::<Rng>()?;
+    m.add_class::<Sampler>()?;
+    m.add("InputError", m.py().get_type::<InputError>())?;
+    m.add("RunError", m.py().get_type::<RunError>())?;
+    m.add("EnvError", m.py().get_type::<EnvError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

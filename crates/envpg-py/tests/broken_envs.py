@@ -1,0 +1,54 @@
+"""Environments that fail in the ways the tests check."""
+
+from queues_env import Queues
+
+
+class Raises(Queues):
+    """`step` raises after a number of steps (in every worker)."""
+
+    def __init__(self, after=50):
+        super().__init__()
+        self.after, self.count = after, 0
+
+    def step(self, s, a, zeta, rng):
+        self.count += 1
+        if self.count > self.after:
+            raise ZeroDivisionError("the simulator broke")
+        return super().step(s, a, zeta, rng)
+
+
+class ReturnsNaN(Queues):
+    def step(self, s, a, zeta, rng):
+        return 0, float("nan")
+
+
+class LeavesTheStates(Queues):
+    def step(self, s, a, zeta, rng):
+        return self.n_states + 3, 1.0
+
+
+class BadConstructor(Queues):
+    """Builds here, but not from its recorded arguments (as in a process without the file)."""
+
+    def __init__(self, simulator=None):
+        super().__init__()
+        if simulator is not None:
+            open(simulator)
+
+    def config(self):
+        return {"simulator": "/no/such/simulator-file"}
+
+
+class BadActions(Queues):
+    def valid_actions(self, s):
+        return [2, 0]
+
+
+class Slow(Queues):
+    """Sleeps in every step: a run long enough to interrupt."""
+
+    def step(self, s, a, zeta, rng):
+        import time
+
+        time.sleep(0.0001)
+        return super().step(s, a, zeta, rng)
