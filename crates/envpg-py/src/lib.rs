@@ -5,8 +5,8 @@
 //! envpg's environments plus [`pyenv::PyEnv`] (environments written in Python), and a
 //! [`Sampler`] for the Gymnasium adapter.
 //!
-//! Data flow: `envpg.train(...)` → [`launch`] (GIL released) → `envpg_launch::run_args` →
-//! learner and worker processes started as `python -m envpg._launch …` → [`launch_main`] in
+//! Data flow: `envpg.train(...)` → `launch` (GIL released) → `envpg_launch::run_args` →
+//! learner and worker processes started as `python -m envpg._launch …` → `launch_main` in
 //! each of them → the same Rust learner and worker loops as `envpg-launch`, a Python
 //! environment's `step` called back with the GIL. Results are `envpg.result.v2` files, read and
 //! written by the same code as the CLI's.
@@ -19,7 +19,7 @@ use std::panic::AssertUnwindSafe;
 use envpg_core::exit::{self, Failure};
 use envpg_core::{Registry, ResultFile};
 use pyo3::create_exception;
-use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyAssertionError, PyKeyboardInterrupt, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
 pub use pyenv::{PyEnv, Rng};
@@ -28,6 +28,7 @@ pub use sampler::Sampler;
 create_exception!(_native, InputError, PyValueError, "Bad input: arguments, settings, instance or result files.");
 create_exception!(_native, RunError, PyRuntimeError, "A run or a computation failed.");
 create_exception!(_native, EnvError, RunError, "The environment failed (an exception or an invalid return).");
+create_exception!(_native, EnvCheckError, PyAssertionError, "An environment check found a disagreement.");
 
 /// envpg's environments and the `python` environment.
 fn registry() -> Registry {
@@ -57,13 +58,19 @@ fn guarded<T: Send>(py: Python<'_>, f: impl FnOnce() -> Result<T, Failure> + Sen
     }
 }
 
-/// The panic hook stays quiet about [`pyenv::EnvPanic`] (it becomes an exception).
+/// Set while [`check_env`] runs: its failed assertions become exceptions, not panic reports.
+static CHECKING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// The panic hook stays quiet about [`pyenv::EnvPanic`] and failed checks (they become
+/// exceptions).
 fn quiet_env_panics() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         let default = std::panic::take_hook();
         std::panic::set_hook(Box::new(move |info| {
-            if info.payload().downcast_ref::<pyenv::EnvPanic>().is_none() {
+            let quiet = info.payload().downcast_ref::<pyenv::EnvPanic>().is_some()
+                || CHECKING.load(std::sync::atomic::Ordering::Relaxed);
+            if !quiet {
                 default(info);
             }
         }));
@@ -181,6 +188,61 @@ fn read_result(result_json: String, origin: String) -> PyResult<String> {
     serde_json::to_string(&r).map_err(|e| RunError::new_err(e.to_string()))
 }
 
+/// envpg's environment checks (`envpg_core::checks`) on an instance at design `zeta`: the
+/// model's ζ-derivatives against central differences (step `h`, relative tolerance `tol`), its
+/// per-state outcomes against the per-action ones, and, for `samples` > 0, the sampler's
+/// frequencies from every valid pair of the states in `states` against the model's
+/// probabilities. Raises `EnvCheckError` naming what disagrees.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn check_env(
+    py: Python<'_>,
+    instance_json: String,
+    zeta: Vec<f64>,
+    h: f64,
+    tol: f64,
+    states: Vec<usize>,
+    samples: usize,
+) -> PyResult<()> {
+    quiet_env_panics();
+    let outcome = py.detach(move || -> Result<Result<(), String>, Failure> {
+        let input = |message: String| Failure { code: exit::INPUT, message };
+        let value: serde_json::Value = serde_json::from_str(&instance_json).map_err(|e| input(e.to_string()))?;
+        let env = registry().from_value(&value, "<instance>").map_err(|e| input(e.to_string()))?;
+        let model = env.model().map_err(|e| input(e.to_string()))?;
+        model.zeta_space().check(&zeta).map_err(|e| input(e.to_string()))?;
+        if let Some(&s) = states.iter().find(|&&s| s >= model.n_states()) {
+            return Err(input(format!("state {s} is not in 0..{}", model.n_states())));
+        }
+        CHECKING.store(true, std::sync::atomic::Ordering::Relaxed);
+        let checked = std::panic::catch_unwind(AssertUnwindSafe(|| {
+            envpg_core::checks::outcome_derivatives(model, &zeta, h, tol);
+            envpg_core::checks::state_paths(model, &zeta);
+            if samples > 0 {
+                for &s in &states {
+                    for &a in model.valid_actions(s) {
+                        envpg_core::checks::sampler_frequencies(model, s, a, &zeta, samples);
+                    }
+                }
+            }
+        }));
+        CHECKING.store(false, std::sync::atomic::Ordering::Relaxed);
+        Ok(checked.map_err(|payload| match payload.downcast::<pyenv::EnvPanic>() {
+            Ok(e) => format!("the environment failed: {}", e.0),
+            Err(p) => p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| (*s).to_owned()))
+                .unwrap_or_else(|| "a check failed".into()),
+        }))
+    });
+    match outcome {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(message)) => Err(EnvCheckError::new_err(message)),
+        Err(f) => Err(raise(f)),
+    }
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(launch, m)?)?;
@@ -191,11 +253,13 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(save_result, m)?)?;
     m.add_function(wrap_pyfunction!(read_result, m)?)?;
+    m.add_function(wrap_pyfunction!(check_env, m)?)?;
     m.add_class::<Rng>()?;
     m.add_class::<Sampler>()?;
     m.add("InputError", m.py().get_type::<InputError>())?;
     m.add("RunError", m.py().get_type::<RunError>())?;
     m.add("EnvError", m.py().get_type::<EnvError>())?;
+    m.add("EnvCheckError", m.py().get_type::<EnvCheckError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

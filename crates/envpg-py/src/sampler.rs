@@ -8,7 +8,7 @@ use pyo3::prelude::*;
 use crate::{InputError, registry};
 
 /// The sampler of an instance (its canonical JSON), stepped one transition at a time with a
-/// stream seeded by [`Sampler::seed`]; the model is never touched.
+/// stream seeded by `seed`; the model is never touched.
 #[pyclass(module = "envpg._native")]
 pub struct Sampler {
     env: LoadedEnv,

@@ -52,3 +52,23 @@ class Slow(Queues):
 
         time.sleep(0.0001)
         return super().step(s, a, zeta, rng)
+
+
+class WrongDerivative(Queues):
+    """`outcomes` reports ∂c/∂ζ₂ twice too large."""
+
+    def outcomes(self, s, a, zeta, grad):
+        out = super().outcomes(s, a, zeta, grad)
+        if grad:
+            for row in out[4]:
+                row[1] *= 2.0
+        return out
+
+
+class WrongSampler(Queues):
+    """`step` draws arrivals at a different rate than `outcomes` says."""
+
+    def step(self, s, a, zeta, rng):
+        arrive = rng.random() < 0.9
+        d = [rng.random() < zeta[0], rng.random() < zeta[1]]
+        return self.next(s, a, arrive, d), self.cost(s, a, zeta)

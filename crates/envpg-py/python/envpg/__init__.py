@@ -11,18 +11,21 @@ arrays.
   instance or on an environment written in Python (:class:`Env`).
 - :func:`oracle` — the model-based oracle with exact gradients (for reporting).
 - :func:`evaluate` — the exact J of a result, recomputed from its own contents.
+- :func:`check_env` — an environment's model derivatives against finite differences, its
+  sampler against its model.
 - :class:`Result` / :func:`load_result` — the ``envpg.result.v2`` files the CLI writes.
 - :mod:`envpg.gym` — any environment as a ``gymnasium.Env``.
 """
 
-from ._native import EnvError, InputError, Rng, RunError, __version__
+from ._native import EnvCheckError, EnvError, InputError, Rng, RunError, __version__
 from ._instance import Instance, envs, load_instance
 from ._pyenv import Env
 from ._result import Result, load_result
-from ._run import evaluate, oracle, resume, train
+from ._run import check_env, evaluate, oracle, resume, train
 
 __all__ = [
     "Env",
+    "EnvCheckError",
     "EnvError",
     "InputError",
     "Instance",
@@ -30,6 +33,7 @@ __all__ = [
     "Rng",
     "RunError",
     "__version__",
+    "check_env",
     "envs",
     "evaluate",
     "load_instance",

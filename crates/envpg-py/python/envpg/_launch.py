@@ -3,11 +3,12 @@ the learner and worker processes of a run started from Python (and usable by han
 
 import sys
 
-from envpg import _native
-from envpg._run import DISPLAY, PROGRAM
+from envpg import _native, _run
+DISPLAY, PROGRAM = _run.DISPLAY, _run.PROGRAM
 
 
 def main() -> None:
+    _run.IN_RUN_PROCESS = True
     sys.exit(_native.launch_main(["envpg-launch", *sys.argv[1:]], PROGRAM, DISPLAY))
 
 

@@ -24,6 +24,19 @@ from ._native import EnvError, InputError, RunError
 from ._pyenv import instance_of, python_path
 from ._result import Result, load_result
 
+#: Set in a run's own processes (``python -m envpg._launch`` / ``_tools``): a module they import
+#: to rebuild the environment must not start runs of its own.
+IN_RUN_PROCESS = False
+
+
+def _not_in_a_run_process(what: str) -> None:
+    if IN_RUN_PROCESS:
+        raise RuntimeError(
+            f"envpg.{what} was called while a run's process imported the environment's module: put the "
+            "script's work under `if __name__ == \"__main__\":` (each process of a run imports it)"
+        )
+
+
 #: How the launcher starts a run's learner and workers from Python.
 PROGRAM = [sys.executable, "-m", "envpg._launch"]
 DISPLAY = "python -m envpg._launch"
@@ -186,6 +199,7 @@ def train(
     environment raised or returned garbage: its traceback), :class:`RunError`, or
     ``KeyboardInterrupt`` on Ctrl-C — every process of the run stopped, its shared memory
     removed, a checkpoint kept for :func:`resume`."""
+    _not_in_a_run_process("train")
     if not isinstance(instance, (str, os.PathLike, Instance)) and in_process:
         raise InputError(
             "a Python environment is stepped by worker processes: train it without in_process=True"
@@ -206,6 +220,7 @@ def train(
 def resume(run_dir: str | os.PathLike[str], *, progress: bool | None = None) -> Result:
     """Continues an interrupted run from its last checkpoint (as ``envpg-launch --resume
     DIR``); the result is the one the run would have given uninterrupted."""
+    _not_in_a_run_process("resume")
     directory = Path(run_dir)
     _launch(["--resume", str(directory)], directory, progress)
     result = load_result(directory / "result.json")
@@ -224,6 +239,7 @@ def oracle(
     """The model-based oracle: annealed co-design with exact gradients, best of ``restarts``
     — exactly ``envpg oracle``. ``settings`` are its options by keyword (``strategy="warm"``,
     ``threads=1``, ``init=[...]``). Runs in a child process, so Ctrl-C stops it at once."""
+    _not_in_a_run_process("oracle")
     with tempfile.TemporaryDirectory(prefix="envpg-oracle-") as d:
         target = Path(out) if out is not None else Path(d) / "oracle.json"
         with _instance_arg(instance) as spec:
@@ -277,3 +293,30 @@ def evaluate(result: Result | str | os.PathLike[str]) -> float | None:
     if isinstance(result, Result):
         return result.evaluate()
     return load_result(result).evaluate()
+
+
+def check_env(
+    env: Any,
+    zeta: Any = None,
+    *,
+    h: float = 1e-6,
+    tol: float = 1e-6,
+    states: Any = (),
+    samples: int = 0,
+) -> None:
+    """envpg's environment checks on an environment's model at design ``zeta`` (default: its
+    initial design, or the centre of its bounds): every ∂p/∂ζ and ∂c/∂ζ of ``outcomes``
+    against central differences (step ``h``, relative tolerance ``tol``), and, with
+    ``samples`` > 0, ``step``'s frequencies from every valid action of each state in
+    ``states`` against ``outcomes``' probabilities. ``env`` is a Python environment object,
+    an :class:`Instance` or an instance name. Raises :class:`EnvCheckError` (an
+    ``AssertionError``) naming the state, action, outcome and coordinate that disagree."""
+    from ._instance import load_instance
+
+    data = instance_of(env) if not isinstance(env, (str, os.PathLike, Instance)) else load_instance(env).data
+    text = json.dumps(data)
+    if zeta is None:
+        zeta = _native.Sampler(text).initial_design()
+    z = [float(x) for x in zeta]
+    with _run_context():
+        _native.check_env(text, z, float(h), float(tol), [int(s) for s in states], int(samples))

@@ -3,10 +3,11 @@ environments, run by :func:`envpg.oracle` in a child process."""
 
 import sys
 
-from envpg import _native
+from envpg import _native, _run
 
 
 def main() -> None:
+    _run.IN_RUN_PROCESS = True
     sys.exit(_native.tools_main(["envpg", *sys.argv[1:]]))
 
 
