@@ -64,11 +64,6 @@ pub struct Rng {
 }
 
 impl Rng {
-    /// A stream owned by Python (the Gymnasium adapter's).
-    pub fn owned(rng: EnvRng) -> Self {
-        Self { inner: Some(rng) }
-    }
-
     fn get(&mut self) -> PyResult<&mut EnvRng> {
         self.inner.as_mut().ok_or_else(|| {
             pyo3::exceptions::PyRuntimeError::new_err(

@@ -72,3 +72,10 @@ class WrongSampler(Queues):
         arrive = rng.random() < 0.9
         d = [rng.random() < zeta[0], rng.random() < zeta[1]]
         return self.next(s, a, arrive, d), self.cost(s, a, zeta)
+
+
+class TakesStar(Queues):
+    """Built from positional `*args`, which a run's processes cannot be given again."""
+
+    def __init__(self, *sizes):
+        super().__init__()

@@ -63,3 +63,24 @@ def test_ctrl_c_stops_everything_and_the_run_resumes_to_the_same_result(tmp_path
     assert resumed.raw["zeta"] == whole.raw["zeta"] and resumed.raw["policy"] == whole.raw["policy"]
     assert resumed.J == whole.J
     assert json.loads((run_dir / "result.json").read_text())["J"] == whole.J
+
+
+def test_ctrl_c_stops_the_oracle_at_once():
+    script = (
+        "import sys, envpg\n"
+        "try:\n"
+        "    envpg.oracle('uav271', restarts=400, threads=1)\n"
+        "except KeyboardInterrupt:\n"
+        "    print('KeyboardInterrupt raised', flush=True)\n"
+        "    sys.exit(130)\n"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not any("envpg._tools" in p for p in run_processes()):
+        time.sleep(0.05)
+    time.sleep(0.5)
+    assert proc.poll() is None
+    os.kill(proc.pid, signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and "KeyboardInterrupt raised" in out, (out, err)
+    assert run_processes() == []

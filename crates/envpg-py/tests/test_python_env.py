@@ -44,3 +44,14 @@ def test_the_oracle_runs_on_a_python_model():
     r = envpg.oracle(Queues(buffer=2), restarts=1, threads=1)
     assert r.J is not None and r.J > 0
     assert envpg.evaluate(r) == pytest.approx(r.J, rel=1e-9)
+
+
+def test_constructor_arguments_are_recorded_by_name():
+    from broken_envs import TakesStar
+
+    from envpg._pyenv import instance_of
+
+    assert instance_of(Queues(3, hold=2.0))["config"] == {"buffer": 3, "hold": 2.0}
+    assert instance_of(TakesStar())["config"] == {}
+    with pytest.raises(envpg.InputError, match="positional arguments"):
+        envpg.train(TakesStar(1, 2), progress=False)

@@ -48,15 +48,23 @@ class Env:
 
     def __new__(cls, *args: Any, **kwargs: Any) -> Env:
         obj = super().__new__(cls)
+        config: dict[str, Any] = dict(kwargs)
         try:
             bound = inspect.signature(cls.__init__).bind(None, *args, **kwargs)
         except TypeError:
-            bound = None
-        if bound is None:
-            config = dict(kwargs)
-        else:
-            config = {k: v for k, v in list(bound.arguments.items())[1:] if k not in ("args", "kwargs")}
-            config.update(bound.arguments.get("kwargs", {}))
+            bound = None  # __init__ itself reports the mismatch
+        if bound is not None:
+            params = inspect.signature(cls.__init__).parameters
+            config = {}
+            for name, value in list(bound.arguments.items())[1:]:
+                kind = params[name].kind
+                if kind is inspect.Parameter.VAR_POSITIONAL:
+                    if value:
+                        obj._envpg_unrebuildable = f"positional arguments *{name}"
+                elif kind is inspect.Parameter.VAR_KEYWORD:
+                    config.update(value)
+                else:
+                    config[name] = value
         obj._envpg_config = config
         return obj
 
@@ -80,6 +88,11 @@ def instance_of(env: Any) -> dict[str, Any]:
         raise InputError(
             f"{cls.__qualname__} is defined inside a function: the run's worker processes cannot import it; "
             "define it at module level"
+        )
+    if getattr(env, "_envpg_unrebuildable", None):
+        raise InputError(
+            f"{cls.__name__} was built with {env._envpg_unrebuildable}, which its run's processes cannot "
+            "pass again: take keyword arguments, or define config()"
         )
     config = env.config() if callable(getattr(env, "config", None)) else {}
     try:
