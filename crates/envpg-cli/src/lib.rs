@@ -33,7 +33,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use envpg_core::Registry;
-use envpg_core::exit::{self, Failure};
+use envpg_core::exit::Failure;
 
 /// Tools for envpg: model-based oracle, exact evaluation, instances, experiments and figures.
 #[derive(Debug, Parser)]
@@ -99,11 +99,7 @@ where
             print!("{e}");
             return Ok(());
         }
-        Err(e) => {
-            let text = e.render().to_string();
-            let message = text.trim_end().strip_prefix("error: ").unwrap_or(text.trim_end()).to_owned();
-            return Err(Failure { code: exit::INPUT, message });
-        }
+        Err(e) => return Err(Failure::usage(&e.render().to_string())),
     };
     execute(cli, registry, launcher)
 }

@@ -19,3 +19,25 @@ pub struct Failure {
     /// The error, with its causes.
     pub message: String,
 }
+
+impl Failure {
+    /// Bad command-line arguments, from the argument parser's rendered error (its leading
+    /// `error: ` dropped: callers print their own).
+    pub fn usage(rendered: &str) -> Self {
+        let text = rendered.trim_end();
+        Self { code: INPUT, message: text.strip_prefix("error: ").unwrap_or(text).to_owned() }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_usage_error_is_bad_input_without_the_parsers_prefix() {
+        let f = Failure::usage("error: unexpected argument '--x' found\n\nUsage: envpg\n");
+        assert_eq!(f.code, INPUT);
+        assert_eq!(f.message, "unexpected argument '--x' found\n\nUsage: envpg");
+        assert_eq!(Failure::usage("no prefix").message, "no prefix");
+    }
+}

@@ -206,11 +206,7 @@ where
             print!("{e}");
             return Ok(());
         }
-        Err(e) => {
-            let text = e.render().to_string();
-            let message = text.trim_end().strip_prefix("error: ").unwrap_or(text.trim_end()).to_owned();
-            return Err(Failure { code: exit::INPUT, message });
-        }
+        Err(e) => return Err(Failure::usage(&e.render().to_string())),
     };
     execute(cli, &registry)
 }
