@@ -3,8 +3,7 @@
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use envpg_core::ResultFile;
-use envpg_core::policy::pairs_from_rows;
-use envpg_model::{Snapshot, evaluate, optimal_greedy};
+use envpg_model::{optimal_greedy, rescore};
 
 use crate::args::{InputError, InstanceArgs, Tools, input_err, parse_zeta};
 
@@ -50,18 +49,16 @@ pub fn run(a: EvaluateArgs, tools: &Tools) -> Result<()> {
         let r = ResultFile::load(path)?;
         let env = r.load_env(&tools.registry, path)?;
         let model = env.model().map_err(|e| InputError(format!("{}: {e}", path.display())))?;
-        let snap = Snapshot::build(model, &r.zeta);
-        let pi = pairs_from_rows(model, &r.policy).map_err(|e| InputError(format!("{}: {e}", path.display())))?;
-        let recomputed = evaluate(&snap, &pi, 0.0);
+        let rescored = rescore(model, &r).map_err(|e| InputError(format!("{}: {e}", path.display())))?;
         let mut line = format!("{}: method={} env={} {} ", path.display(), r.method, r.env, env.params_text());
-        match (&recomputed, r.j) {
-            (Ok(v), Some(stored)) => {
-                let ok = (v.j - stored).abs() <= a.tol * stored.abs().max(1.0);
-                line += &format!("J = {:.9} (stored {:.9}) {}", v.j, stored, if ok { "ok" } else { "MISMATCH" });
+        match (&rescored.j, r.j) {
+            (Ok(j), Some(stored)) => {
+                let ok = (j - stored).abs() <= a.tol * stored.abs().max(1.0);
+                line += &format!("J = {:.9} (stored {:.9}) {}", j, stored, if ok { "ok" } else { "MISMATCH" });
                 mismatches += usize::from(!ok);
             }
-            (Ok(v), None) => {
-                line += &format!("J = {:.9} (stored null) MISMATCH", v.j);
+            (Ok(j), None) => {
+                line += &format!("J = {:.9} (stored null) MISMATCH", j);
                 mismatches += 1;
             }
             (Err(e), None) => line += &format!("J = inf ({e}) (stored null) ok"),
@@ -70,11 +67,8 @@ pub fn run(a: EvaluateArgs, tools: &Tools) -> Result<()> {
                 mismatches += 1;
             }
         }
-        if let (Some(soft), Some(alpha)) = (&r.policy_soft, r.alpha_final) {
-            let pis = pairs_from_rows(model, soft).map_err(|e| InputError(format!("{}: {e}", path.display())))?;
-            if let Ok(v) = evaluate(&snap, &pis, alpha) {
-                line += &format!("  J_H(soft policy, alpha={alpha:.3e}) = {:.9}", v.j);
-            }
+        if let (Some(j_h), Some(alpha)) = (rescored.j_h, r.alpha_final) {
+            line += &format!("  J_H(soft policy, alpha={alpha:.3e}) = {j_h:.9}");
         }
         println!("{line}");
     }

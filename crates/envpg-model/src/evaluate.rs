@@ -3,6 +3,9 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use envpg_core::policy::{PolicyError, pairs_from_rows};
+use envpg_core::{ModelMdp, ResultFile};
+
 use crate::error::ModelError;
 use crate::snapshot::{Scc, Snapshot};
 
@@ -152,6 +155,28 @@ pub(crate) fn eval_state(snap: &Snapshot, s: usize, pi: &[f64], alpha: f64, v: &
         .filter(|&sa| pi[sa] != 0.0)
         .map(|sa| pi[sa] * (snap.rbar[sa] + snap.gamma * snap.expect(sa, v)) + ent(alpha, pi[sa]))
         .sum()
+}
+
+/// What a result file's own contents score to, recomputed rather than read.
+#[derive(Debug, Clone)]
+pub struct Rescored {
+    /// Exact J of (ζ, policy); an error when the policy does not terminate from some state.
+    pub j: Result<f64, ModelError>,
+    /// J_H of the soft policy at the final temperature, when the file has both and it is finite.
+    pub j_h: Option<f64>,
+}
+
+/// Rescores result file `r` on `model` (the environment of its own instance): J of its ζ and
+/// policy, and J_H of its soft policy. Fails only when the policy rows do not fit the model.
+pub fn rescore<M: ModelMdp + ?Sized>(model: &M, r: &ResultFile) -> Result<Rescored, PolicyError> {
+    let snap = Snapshot::build(model, &r.zeta);
+    let pi = pairs_from_rows(model, &r.policy)?;
+    let j = evaluate(&snap, &pi, 0.0).map(|v| v.j);
+    let j_h = match (&r.policy_soft, r.alpha_final) {
+        (Some(soft), Some(alpha)) => evaluate(&snap, &pairs_from_rows(model, soft)?, alpha).ok().map(|v| v.j),
+        _ => None,
+    };
+    Ok(Rescored { j, j_h })
 }
 
 /// Exact values of policy `pi` (probabilities per state–action pair of `snap`) with entropy

@@ -54,7 +54,7 @@ pub mod snapshot;
 pub mod soft;
 
 pub use error::ModelError;
-pub use evaluate::{PolicyValue, evaluate, greedy_j, mu_dense, optimal_greedy, visits};
+pub use evaluate::{PolicyValue, Rescored, evaluate, greedy_j, mu_dense, optimal_greedy, rescore, visits};
 pub use grad::{
     ParamPolicy, accumulate_local, corollary_gradient, fd_gradient, horizon_gradient, policy_table, theorem_gradient,
 };

@@ -118,11 +118,23 @@ fn exit_code(r: Result<(), Failure>) -> u8 {
     }
 }
 
-/// An instance by bundled name or path, with parameter overrides: `(env, canonical JSON)`.
+/// An instance by bundled name or path (or, with `is_json`, the instance's JSON text), with
+/// parameter overrides: `(env, canonical JSON)`.
 #[pyfunction]
-fn load_instance(py: Python<'_>, spec: String, params: Vec<(String, f64)>) -> PyResult<(String, String)> {
+fn load_instance(
+    py: Python<'_>,
+    spec: String,
+    is_json: bool,
+    params: Vec<(String, f64)>,
+) -> PyResult<(String, String)> {
     guarded(py, move || {
-        let env = registry().load(&spec, &params).map_err(|e| Failure { code: exit::INPUT, message: e.to_string() })?;
+        let r = registry();
+        let env = if is_json {
+            envpg_core::InstanceFile::parse(&spec, "<instance>").and_then(|f| r.build(f, &params))
+        } else {
+            r.load(&spec, &params)
+        }
+        .map_err(|e| Failure { code: exit::INPUT, message: e.to_string() })?;
         Ok((env.name.to_owned(), env.instance.to_string()))
     })
 }
@@ -155,17 +167,8 @@ fn evaluate(py: Python<'_>, result_json: String, origin: String) -> PyResult<(Op
         let r = ResultFile::from_json_str(&result_json, &origin).map_err(|e| input(e.to_string()))?;
         let env = r.load_env(&registry(), &origin).map_err(|e| input(e.to_string()))?;
         let model = env.model().map_err(|e| input(e.to_string()))?;
-        let snap = envpg_model::Snapshot::build(model, &r.zeta);
-        let pi = envpg_core::policy::pairs_from_rows(model, &r.policy).map_err(|e| input(e.to_string()))?;
-        let j = envpg_model::evaluate(&snap, &pi, 0.0).ok().map(|v| v.j);
-        let j_h = match (&r.policy_soft, r.alpha_final) {
-            (Some(soft), Some(alpha)) => {
-                let pis = envpg_core::policy::pairs_from_rows(model, soft).map_err(|e| input(e.to_string()))?;
-                envpg_model::evaluate(&snap, &pis, alpha).ok().map(|v| v.j)
-            }
-            _ => None,
-        };
-        Ok((j, j_h))
+        let rescored = envpg_model::rescore(model, &r).map_err(|e| input(e.to_string()))?;
+        Ok((rescored.j.ok(), rescored.j_h))
     })
 }
 

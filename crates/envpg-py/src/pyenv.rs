@@ -14,8 +14,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use envpg_core::{
-    Env, EnvRng, EnvSpec, InstanceError, InstanceFile, ModelMdp, Outcomes, ParamMdp, ParamSpec, Purpose, Streams,
-    ZetaSpace,
+    Env, EnvRng, EnvSpec, InstanceError, InstanceFile, ModelMdp, Outcomes, ParamMdp, ParamSpec, ZetaSpace,
 };
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -97,7 +96,8 @@ fn with_rng<'py, T>(
     rng: &mut EnvRng,
     f: impl FnOnce(&Bound<'py, Rng>) -> PyResult<T>,
 ) -> Result<T, String> {
-    let placeholder = Streams::new(0).stream(Purpose::Other, 0, 0);
+    // Any stream holds the place while Python has the real one; a fixed key costs no mixing.
+    let placeholder = <EnvRng as rand::SeedableRng>::from_seed([0; 32]);
     let lent = Bound::new(py, Rng { inner: Some(std::mem::replace(rng, placeholder)) }).map_err(|e| e.to_string())?;
     let out = f(&lent);
     *rng = lent.borrow_mut().inner.take().expect("the stream is taken back once");

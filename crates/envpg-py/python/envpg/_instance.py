@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from dataclasses import dataclass
 from typing import Any
 
@@ -57,14 +56,9 @@ def _load(spec: str | None = None, json_text: str | None = None, params: dict[st
             raise InputError(f"parameter {key}={value!r}: must be a finite number")
         overrides.append((key, float(value)))
     if json_text is not None:
-        with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
-            f.write(json_text)
-        try:
-            env, text = _native.load_instance(f.name, overrides)
-        finally:
-            os.unlink(f.name)
+        env, text = _native.load_instance(json_text, True, overrides)
     else:
-        env, text = _native.load_instance(spec, overrides)
+        env, text = _native.load_instance(spec, False, overrides)
     return Instance(env=env, data=json.loads(text))
 
 

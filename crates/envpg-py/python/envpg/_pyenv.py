@@ -10,7 +10,7 @@ import os
 import sys
 from typing import Any
 
-from ._native import InputError, Rng
+from ._native import InputError
 
 
 class Env:
@@ -141,4 +141,4 @@ def python_path() -> str:
     return os.pathsep.join(dict.fromkeys(here))
 
 
-__all__ = ["Env", "Rng", "import_script", "instance_of", "python_path"]
+__all__ = ["Env", "import_script", "instance_of", "python_path"]

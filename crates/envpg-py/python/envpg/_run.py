@@ -318,5 +318,4 @@ def check_env(
     if zeta is None:
         zeta = _native.Sampler(text).initial_design()
     z = [float(x) for x in zeta]
-    with _run_context():
-        _native.check_env(text, z, float(h), float(tol), [int(s) for s in states], int(samples))
+    _native.check_env(text, z, float(h), float(tol), [int(s) for s in states], int(samples))
