@@ -1,6 +1,7 @@
 //! The learner killed with SIGKILL: `envpg-launch --resume DIR` continues from the last
 //! checkpoint (θ, φ, φ⁻, ζ, optimiser moments, α, k, visit counts, history) and ends bitwise
-//! identical to an uninterrupted run.
+//! identical to an uninterrupted run — also with a policy lag, whose checkpoint carries the
+//! weights the next batch is sampled with.
 
 mod support;
 
@@ -12,9 +13,18 @@ use support::launch::{
 
 #[test]
 fn resume_after_a_killed_learner_matches_an_uninterrupted_run() {
+    killed_and_resumed(0);
+}
+
+#[test]
+fn a_lagged_run_resumed_after_a_killed_learner_matches_an_uninterrupted_run() {
+    killed_and_resumed(1);
+}
+
+fn killed_and_resumed(lag: usize) {
     let dir = tempfile::tempdir().unwrap();
     let inst = tiny_instance_file(dir.path());
-    let base = small_run(&inst, 9, 200);
+    let base = with(small_run(&inst, 9, 200), &["--lag", &lag.to_string()]);
 
     let reference = dir.path().join("reference.json");
     let o = run(
@@ -64,7 +74,7 @@ fn resume_after_a_killed_learner_matches_an_uninterrupted_run() {
             a["history"].as_array().unwrap().iter().zip(b["history"].as_array().unwrap()).position(|(x, y)| x != y);
         let show = |v: &serde_json::Value| first.map(|i| v["history"][i].to_string()).unwrap_or_default();
         panic!(
-            "the resumed run differs from the uninterrupted one; first differing history row: {first:?}\nresumed:   {}\nreference: {}",
+            "lag {lag}: the resumed run differs from the uninterrupted one; first differing history row: {first:?}\nresumed:   {}\nreference: {}",
             show(&a),
             show(&b)
         );

@@ -178,6 +178,13 @@ pub struct AcConfig {
     /// random numbers; 0 accepts any (right where sampled costs are precise, as in the UAV
     /// network; noisy one-step costs need it).
     pub polish_z: f64,
+    /// Policy lag of the sampled batches: 0 samples iteration k's episodes with θ_k at ζ_k
+    /// (synchronous: workers wait while the learner updates); 1 samples them with the weights,
+    /// design and temperature of iteration k − 1 (iteration 0 with θ_0, ζ_0), so that a
+    /// distributed learner updates on batch k while the workers sample batch k + 1. The lag is
+    /// fixed, never "whichever batch finished first", so the result stays a function of the
+    /// seed alone.
+    pub lag: usize,
     /// Exact J of (ζ_k, greedy π) is recorded every this many iterations (reporting only).
     pub eval_every: usize,
     /// Settings in the environment's own units ([`AcConfig::resolve`]): temperatures
@@ -236,6 +243,7 @@ impl Default for AcConfig {
             polish_spread: 0.3,
             polish_screen: 20,
             polish_z: 0.0,
+            lag: 0,
             eval_every: 50,
             scale_free: false,
         }
@@ -349,6 +357,9 @@ impl AcConfig {
         }
         if self.episode_cap == 0 {
             return err("episode_cap", "must be at least 1".into());
+        }
+        if self.lag > 1 {
+            return err("lag", format!("must be 0 or 1, got {}", self.lag));
         }
         if !(self.sigma.is_finite() && self.sigma >= 0.0) {
             return err("sigma", format!("must be finite and >= 0, got {}", self.sigma));
@@ -583,6 +594,7 @@ mod tests {
             AcConfig { polish_spread: f64::NAN, ..Default::default() },
             AcConfig { polish_screen: 0, ..Default::default() },
             AcConfig { polish_policy_samples: 0, ..Default::default() },
+            AcConfig { lag: 2, ..Default::default() },
         ];
         let fields: Vec<_> = bad.iter().map(|c| c.validate().unwrap_err().field).collect();
         assert_eq!(
@@ -595,7 +607,8 @@ mod tests {
                 "polish_candidates",
                 "polish_spread",
                 "polish_screen",
-                "polish_policy_samples"
+                "polish_policy_samples",
+                "lag"
             ]
         );
     }

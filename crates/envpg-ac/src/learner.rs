@@ -124,6 +124,31 @@ pub struct LearnerState {
     pub zeta_sum: Vec<f64>,
     /// Number of designs in `zeta_sum`.
     pub zeta_count: u64,
+    /// With a policy lag, the weights the next batch is sampled with (see [`Behaviour`]).
+    pub lagged: Option<Behaviour>,
+}
+
+/// The weights a batch is sampled with when the run has a policy lag ([`AcConfig::lag`]): the
+/// actor θ_{k−1}, design ζ_{k−1} and temperature α_{k−1} from before the last update.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Behaviour {
+    /// Actor parameters.
+    pub actor: Vec<f32>,
+    /// Design.
+    pub zeta: Vec<f64>,
+    /// Temperature.
+    pub alpha: f64,
+}
+
+/// What the next batch is sampled with ([`Learner::behaviour`]), borrowed from the learner.
+#[derive(Debug, Clone, Copy)]
+pub struct BehaviourRef<'a> {
+    /// Actor parameters.
+    pub actor: &'a [f32],
+    /// Design.
+    pub zeta: &'a [f64],
+    /// Temperature.
+    pub alpha: f64,
 }
 
 /// The learner.
@@ -152,6 +177,8 @@ pub struct Learner {
     zeta: Vec<f64>,
     alpha: f64,
     k: u64,
+    /// With a policy lag, what the next batch is sampled with (set by every update).
+    lagged: Option<Behaviour>,
     /// Reusable gradient buffers.
     actor_grad: Vec<f32>,
     critic_grad: Vec<f32>,
@@ -219,6 +246,7 @@ impl Learner {
             zeta: zeta0,
             alpha,
             k: 0,
+            lagged: None,
             actor_grad: Vec::new(),
             critic_grad: Vec::new(),
         }
@@ -283,6 +311,7 @@ impl Learner {
             visits: self.visits.clone(),
             zeta_sum: self.zeta_sum.clone(),
             zeta_count: self.zeta_count,
+            lagged: self.lagged.clone(),
         }
     }
 
@@ -314,6 +343,15 @@ impl Learner {
         }
         self.zeta_sum = st.zeta_sum;
         self.zeta_count = st.zeta_count;
+        if let Some(b) = &st.lagged
+            && (b.actor.len() != n_a || b.zeta.len() != self.zeta.len())
+        {
+            return Err("checkpoint behaviour weights do not match this configuration".into());
+        }
+        if st.lagged.is_some() != (self.cfg.lag > 0 && st.k > 0) {
+            return Err("checkpoint policy lag does not match this configuration".into());
+        }
+        self.lagged = st.lagged;
         self.zeta = st.zeta;
         self.features.set_center(&self.zeta);
         self.alpha = st.alpha;
@@ -330,6 +368,28 @@ impl Learner {
         let mut q = Vec::new();
         self.critic.values(&cols, &mut q);
         q.iter().map(|&x| x as f64).collect()
+    }
+
+    /// What the batch of iteration k is sampled with: θ_k, ζ_k, α_k, or with a policy lag
+    /// ([`AcConfig::lag`]) those of iteration k − 1 (θ_0, ζ_0, α_0 for the first two batches).
+    pub fn behaviour(&self) -> BehaviourRef<'_> {
+        match &self.lagged {
+            Some(b) => BehaviourRef { actor: &b.actor, zeta: &b.zeta, alpha: b.alpha },
+            None => BehaviourRef { actor: self.actor.mlp.params(), zeta: &self.zeta, alpha: self.alpha },
+        }
+    }
+
+    /// The policy of [`Learner::behaviour`] at its design: the table the batch of iteration k
+    /// is sampled from (the same as [`Learner::policy_table`] without a lag).
+    pub fn behaviour_table(&self) -> PolicyTable<'static> {
+        match &self.lagged {
+            Some(b) => {
+                let mut actor = self.actor.mlp.clone();
+                actor.set_params(&b.actor);
+                PolicyTable::owned(&actor, &self.features, &self.sets, &b.zeta)
+            }
+            None => self.policy_table(),
+        }
     }
 
     /// π_θk(·|·, ζ_k): what the workers sample from (rows are filled on demand). It holds its
@@ -378,13 +438,19 @@ impl Learner {
         Ok(f)
     }
 
-    /// One iteration of Algorithm 1 on the episodes generated with θ_k at ζ_k.
+    /// One iteration of Algorithm 1 on the episodes generated with θ_k at ζ_k (with a policy
+    /// lag, with [`Learner::behaviour`]: θ_{k−1} at ζ_{k−1}).
     pub fn update(&mut self, batch: &Batch) -> Result<Stats, LearnerError> {
         if batch.k != self.k {
             return Err(LearnerError::WrongIteration { expected: self.k, got: batch.k });
         }
         let flat = self.flatten(batch)?;
         let cfg = self.cfg.clone();
+        if cfg.lag > 0 {
+            // Batch k + 1 is sampled with the weights this update starts from.
+            self.lagged =
+                Some(Behaviour { actor: self.actor.mlp.params().to_vec(), zeta: self.zeta.clone(), alpha: self.alpha });
+        }
         let d = self.zeta.len();
         let alpha = self.alpha;
         let mut table = self.policy_table();

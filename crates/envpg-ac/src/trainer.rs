@@ -361,8 +361,8 @@ pub fn advance<E: ParamMdp + ?Sized>(
     let sets = learner.action_sets().clone();
     for _ in 0..iterations {
         let k = learner.k();
-        let mut table = learner.policy_table();
-        let zeta = learner.zeta().to_vec();
+        let mut table = learner.behaviour_table();
+        let zeta = learner.behaviour().zeta.to_vec();
         let episodes = run_iteration(env, &sets, &mut table, &zeta, config, streams, k);
         learner.update(&Batch { k, episodes })?;
     }
@@ -386,7 +386,12 @@ pub fn train(
         let k = learner.k();
         let mut table = learner.policy_table();
         let zeta_k = learner.zeta().to_vec();
-        let episodes = run_iteration(env.sampler(), &sets, &mut table, &zeta_k, learner.config(), &streams, k);
+        let episodes = if learner.config().lag == 0 {
+            run_iteration(env.sampler(), &sets, &mut table, &zeta_k, learner.config(), &streams, k)
+        } else {
+            let (mut behaviour, zeta) = (learner.behaviour_table(), learner.behaviour().zeta.to_vec());
+            run_iteration(env.sampler(), &sets, &mut behaviour, &zeta, learner.config(), &streams, k)
+        };
         let stats = learner.update(&Batch { k, episodes })?;
         let p = rec.record(&zeta_k, &mut table, &stats);
         if !progress(&p) {

@@ -181,6 +181,12 @@ pub struct TrainArgs {
     /// Record the exact J of (ζ_k, greedy π_k) every this many iterations (reporting only).
     #[arg(long)]
     pub eval_every: Option<usize>,
+    /// Policy lag: 0 samples iteration k's episodes with θ_k, ζ_k (the workers wait while the
+    /// learner updates); 1 samples them with θ_{k−1}, ζ_{k−1}, so the learner updates on batch
+    /// k while the workers sample batch k + 1. Either way the same seed gives the same result
+    /// for any worker count.
+    #[arg(long)]
+    pub lag: Option<usize>,
 }
 
 /// `--zeta-input`.
@@ -251,7 +257,7 @@ impl TrainArgs {
         set!(polish_policy_rounds, polish_policy_samples, polish_candidates, polish_spread, polish_screen, polish_z);
         set!(critic_lr, critic_steps, batch, polyak, actor_lr, actor_steps, warmup, zeta_lr, zeta_lr_decay);
         set!(zeta_clip, alpha0, alpha_decay, alpha_final, eval_every, relocate_every, relocate_below);
-        set!(loop_tolerance, alpha_backoff, zeta_average);
+        set!(loop_tolerance, alpha_backoff, zeta_average, lag);
         if let Some(v) = self.zeta_input {
             c.zeta_input = match v {
                 ZetaInputArg::None => ZetaInput::None,

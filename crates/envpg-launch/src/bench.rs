@@ -7,7 +7,10 @@
 //! 2. `in-process`: learner and one worker thread over iceoryx2's process-local service;
 //! 3. `ipc` with 1, 2, … worker processes over shared memory;
 //!
-//! then the latency of broadcasting the actor's weights to a subscriber blocked in a WaitSet.
+//! then whole training runs (`train`: the learner updates, the polish is skipped) with 1, 2, …
+//! worker processes, with policy lag 0 and 1 side by side, each with the learner's share of the
+//! run (its seconds in `Learner::update` over the run's); and last the latency of broadcasting
+//! the actor's weights to a subscriber blocked in a WaitSet.
 
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -29,8 +32,12 @@ use crate::run_dir::{RunFile, new_run_id};
 /// One throughput measurement.
 #[derive(Debug, Serialize)]
 pub struct Throughput {
-    /// `raw`, `in-process` or `ipc`.
+    /// `raw`, `in-process`, `ipc` (collect-only) or `train`.
     pub mode: String,
+    /// Policy lag of a `train` measurement.
+    pub lag: Option<usize>,
+    /// Of a `train` measurement: the learner's seconds in `Learner::update` over the run's.
+    pub learner_share: Option<f64>,
     /// Worker threads or processes.
     pub workers: usize,
     /// Transitions moved.
@@ -60,7 +67,7 @@ pub struct Report {
     pub broadcast_latency_us: [f64; 3],
 }
 
-fn collect_cfg(run_id: &str, env: &LoadedEnv, spec: &RunSpec, workers: usize) -> LearnerConfig {
+fn learner_cfg(run_id: &str, env: &LoadedEnv, spec: &RunSpec, workers: usize, collect_only: bool) -> LearnerConfig {
     LearnerConfig {
         run_id: run_id.to_owned(),
         spec: spec.clone(),
@@ -70,7 +77,7 @@ fn collect_cfg(run_id: &str, env: &LoadedEnv, spec: &RunSpec, workers: usize) ->
         checkpoint: None,
         resume: None::<Checkpoint>,
         stall_timeout: Duration::from_secs(60),
-        collect_only: true,
+        collect_only,
     }
 }
 
@@ -88,12 +95,20 @@ fn raw(loaded: &LoadedEnv, spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
         }
     }
     let seconds = start.elapsed().as_secs_f64();
-    Ok(Throughput { mode: "raw".into(), workers: 0, transitions, seconds, per_second: transitions as f64 / seconds })
+    Ok(Throughput {
+        mode: "raw".into(),
+        lag: None,
+        learner_share: None,
+        workers: 0,
+        transitions,
+        seconds,
+        per_second: transitions as f64 / seconds,
+    })
 }
 
 fn in_process(env: &LoadedEnv, spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
     let run_id = new_run_id();
-    let lcfg = collect_cfg(&run_id, env, spec, 1);
+    let lcfg = learner_cfg(&run_id, env, spec, 1, true);
     let start = Instant::now();
     let stats = std::thread::scope(|scope| {
         let wcfg = worker_cfg(&run_id, env, spec, 0, cost_us);
@@ -103,6 +118,8 @@ fn in_process(env: &LoadedEnv, spec: &RunSpec, cost_us: u64) -> Result<Throughpu
     let seconds = start.elapsed().as_secs_f64();
     Ok(Throughput {
         mode: "in-process".into(),
+        lag: None,
+        learner_share: None,
         workers: 1,
         transitions: stats.transitions,
         seconds,
@@ -125,8 +142,22 @@ fn worker_cfg(run_id: &str, env: &LoadedEnv, spec: &RunSpec, id: u32, cost_us: u
     }
 }
 
-fn ipc_workers(env: &LoadedEnv, spec: &RunSpec, cost_us: u64, workers: usize, dir: &Path) -> Result<Throughput> {
+/// `workers` worker processes over shared memory: collect-only, or with `train = Some(lag)` a
+/// training run with that policy lag (the polish skipped).
+fn ipc_workers(
+    env: &LoadedEnv,
+    spec: &RunSpec,
+    cost_us: u64,
+    workers: usize,
+    dir: &Path,
+    train: Option<usize>,
+) -> Result<Throughput> {
     let run_id = new_run_id();
+    let mut spec = spec.clone();
+    if let Some(lag) = train {
+        spec.config.lag = lag;
+        spec.config.polish_iterations = 0;
+    }
     let run = RunFile {
         run_id: run_id.clone(),
         spec: spec.clone(),
@@ -153,14 +184,16 @@ fn ipc_workers(env: &LoadedEnv, spec: &RunSpec, cost_us: u64, workers: usize, di
         })
         .collect::<std::io::Result<_>>()?;
     let start = Instant::now();
-    let res = run_learner::<ipc::Service>(&collect_cfg(&run_id, env, spec, workers), |_| true);
+    let res = run_learner::<ipc::Service>(&learner_cfg(&run_id, env, &spec, workers, train.is_none()), |_| true);
     let seconds = start.elapsed().as_secs_f64();
     for c in &mut children {
         let _ = c.wait();
     }
     let stats = res?.1;
     Ok(Throughput {
-        mode: "ipc".into(),
+        mode: if train.is_some() { "train" } else { "ipc" }.into(),
+        lag: train,
+        learner_share: train.map(|_| stats.update_seconds / seconds),
         workers,
         transitions: stats.transitions,
         seconds,
@@ -236,7 +269,12 @@ pub fn run(
     for _ in 0..repeats.max(1) {
         let mut round = vec![raw(env, spec, cost_us)?, in_process(env, spec, cost_us)?];
         for &w in worker_counts {
-            round.push(ipc_workers(env, spec, cost_us, w, dir)?);
+            round.push(ipc_workers(env, spec, cost_us, w, dir, None)?);
+        }
+        for &w in worker_counts {
+            for lag in [0, 1] {
+                round.push(ipc_workers(env, spec, cost_us, w, dir, Some(lag))?);
+            }
         }
         rounds.push(round);
     }
@@ -247,6 +285,8 @@ pub fn run(
             let m = all[all.len() / 2];
             Throughput {
                 mode: m.mode.clone(),
+                lag: m.lag,
+                learner_share: m.learner_share,
                 workers: m.workers,
                 transitions: m.transitions,
                 seconds: m.seconds,
@@ -279,7 +319,7 @@ pub fn print(r: &Report) {
         "{:<11} {:>7} {:>14} {:>8} {:>12} {:>11}",
         "mode", "workers", "transitions/s", "vs raw", "vs in-proc", "scaling"
     );
-    for t in &r.throughput {
+    for t in r.throughput.iter().filter(|t| t.mode != "train") {
         let scaling = if t.mode == "ipc" {
             format!("{:.0}%", 100.0 * t.per_second / (one * t.workers as f64))
         } else {
@@ -294,6 +334,31 @@ pub fn print(r: &Report) {
             100.0 * t.per_second / inproc,
             scaling
         );
+    }
+    let train: Vec<&Throughput> = r.throughput.iter().filter(|t| t.mode == "train").collect();
+    if !train.is_empty() {
+        println!(
+            "training (worker processes, the learner updating, no polish; scaling: against twice the same lag's 1-worker figure)"
+        );
+        println!(
+            "{:>7} {:>4} {:>14} {:>14} {:>10} {:>11}",
+            "workers", "lag", "transitions/s", "learner share", "scaling", "vs lag 0"
+        );
+        let find =
+            |w: usize, lag: usize| train.iter().find(|t| t.workers == w && t.lag == Some(lag)).map(|t| t.per_second);
+        for t in &train {
+            let lag = t.lag.unwrap_or(0);
+            let pct = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{:.0}%", 100.0 * x));
+            println!(
+                "{:>7} {:>4} {:>14.0} {:>14} {:>10} {:>11}",
+                t.workers,
+                lag,
+                t.per_second,
+                pct(t.learner_share),
+                pct(find(1, lag).map(|one| t.per_second / (one * t.workers as f64))),
+                pct(find(t.workers, 0).map(|l0| t.per_second / l0)),
+            );
+        }
     }
     println!(
         "weights broadcast ({} floats, {} KiB): p50 {:.0} µs, p90 {:.0} µs, p99 {:.0} µs",

@@ -105,8 +105,10 @@ struct LaunchArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
-    /// Measure rollout and transport throughput (raw loop, in-process, 1..N worker processes)
-    /// and weight-broadcast latency instead of training; see also --bench-workers.
+    /// Measure rollout and transport throughput (raw loop, in-process, 1..N worker processes),
+    /// training throughput with policy lag 0 and 1 side by side (the learner's share of each
+    /// run, no polish) and weight-broadcast latency instead of training; see also
+    /// --bench-workers.
     #[arg(long)]
     bench: bool,
     /// Worker-process counts measured by --bench.

@@ -10,6 +10,11 @@
 //! [`envpg_ac::trainer::Recorder::finish`] as in one process, which also runs the ζ polish
 //! (`polish_iterations`) here, in the learner process, on two threads.
 //!
+//! With a policy lag ([`envpg_ac::AcConfig::lag`] = 1) the learner overlaps: it broadcasts
+//! θ_k, ζ_k, α_k for iteration k + 1 and gathers that batch on this thread while another
+//! thread updates on batch k. The lag is fixed — batch k + 1 is always sampled with θ_k — so
+//! the result is the serial trainer's, bit for bit, for any worker count.
+//!
 //! Faults: a worker that stops heartbeating (or is replaced: a new incarnation in its slot, or
 //! says goodbye) loses its unfinished episodes to the others; late or duplicate episodes are
 //! dropped, so nothing is lost or counted twice. Episodes from another run, iteration or
@@ -19,7 +24,7 @@
 //! A learner and one worker thread on one run, over the process-local iceoryx2 service:
 //!
 //! ```
-//! use std::time::Duration;
+//! use std::time::{Duration, Instant};
 //! use envpg_ac::{AcConfig, trainer::{RunSpec, train}};
 //! use envpg_learner::{LearnerConfig, run_learner};
 //! use envpg_worker::{WorkerConfig, run_worker};
@@ -46,8 +51,9 @@
 //! ```
 
 mod assign;
+mod collect;
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -55,12 +61,13 @@ use envpg_ac::learner::{Batch, LearnerState};
 use envpg_ac::rollout::{Episode, episode_ids};
 use envpg_ac::trainer::{Progress, Recorder, RunSpec, TrainError};
 use envpg_core::{LoadedEnv, ResultFile};
-use envpg_protocol::{Checkpoint, EpisodeHeader, EpisodeId, PROTOCOL_VERSION, StepRecord, hello_kind, run_id_bytes};
+use envpg_protocol::{Checkpoint, EpisodeId, PROTOCOL_VERSION, run_id_bytes};
 use envpg_transport::{LearnerEnd, LinkSizes, TransportError};
 use iceoryx2::prelude::*;
-use iceoryx2::waitset::WaitSetRunResult;
 
 pub use assign::Assignments;
+use collect::{Collected, Link};
+pub use collect::{EpisodeShape, episode_from};
 
 /// Where and how often to checkpoint. Besides every `every` iterations, the learner always
 /// checkpoints when it is stopped (SIGINT/SIGTERM, or the progress callback) and once training
@@ -97,7 +104,7 @@ pub struct LearnerConfig {
     pub collect_only: bool,
 }
 
-/// Counters of the link, reported in the result file.
+/// Counters of the link, and the learner's own time, reported in the result file.
 #[derive(Debug, Clone, Default, serde::Serialize)]
 pub struct LinkStats {
     /// Episode messages accepted.
@@ -120,6 +127,8 @@ pub struct LinkStats {
     pub reassigned: u64,
     /// Workers that refused the run for a protocol mismatch.
     pub protocol_refusals: u64,
+    /// Seconds spent in `Learner::update` (with a policy lag, on the thread beside the link).
+    pub update_seconds: f64,
 }
 
 /// Why the learner stopped.
@@ -165,57 +174,6 @@ pub enum LearnerError {
     /// The progress callback asked to stop.
     #[error("stopped at iteration {0}")]
     Stopped(u64),
-}
-
-/// What a well-formed episode message of this run looks like.
-#[derive(Debug, Clone, Copy)]
-pub struct EpisodeShape {
-    /// Dimension of ζ.
-    pub zeta_dim: usize,
-    /// Most records per episode.
-    pub cap: usize,
-    /// States are `0..n_states`.
-    pub n_states: usize,
-    /// Actions are `0..n_actions`.
-    pub n_actions: usize,
-}
-
-/// Converts a received episode message to an [`Episode`], checking everything it carries: its
-/// shape, every state and action in range, every cost and perturbed ζ finite. A malformed
-/// message (a broken or hostile peer) is refused whole, with the reason.
-pub fn episode_from(h: &EpisodeHeader, recs: &[StepRecord], shape: &EpisodeShape) -> Result<Episode, String> {
-    let (d, cap) = (shape.zeta_dim, shape.cap);
-    if h.zeta_dim as usize != d {
-        return Err(format!("ζ dimension {} instead of {d}", h.zeta_dim));
-    }
-    if recs.len() != h.len as usize || recs.len() > cap || recs.is_empty() {
-        return Err(format!("{} records (header says {}, cap {cap})", recs.len(), h.len));
-    }
-    if h.capped > 1 {
-        return Err(format!("capped flag {}", h.capped));
-    }
-    for (t, r) in recs.iter().enumerate() {
-        let (s, a, s2) = (r.s as usize, r.a as usize, r.s2 as usize);
-        if s >= shape.n_states || s2 >= shape.n_states || a >= shape.n_actions {
-            return Err(format!(
-                "step {t}: (s, a, s') = ({s}, {a}, {s2}) outside {} states and {} actions",
-                shape.n_states, shape.n_actions
-            ));
-        }
-        if !r.cost.is_finite() || r.zeta[..d].iter().any(|z| !z.is_finite()) {
-            return Err(format!("step {t}: a cost or ζ coordinate is not finite"));
-        }
-    }
-    let mut ep =
-        Episode { index: h.episode.index, explore: h.episode.kind != 0, capped: h.capped != 0, ..Default::default() };
-    for r in recs {
-        ep.s.push(r.s);
-        ep.a.push(r.a);
-        ep.s2.push(r.s2);
-        ep.cost.push(r.cost);
-        ep.zeta.extend_from_slice(&r.zeta[..d]);
-    }
-    Ok(ep)
 }
 
 fn episode_id(kind: envpg_ac::EpisodeKind, index: u64) -> EpisodeId {
@@ -269,156 +227,133 @@ where
     let tick = (cfg.worker_timeout / 4).clamp(Duration::from_millis(5), Duration::from_millis(50));
     let _tick = waitset.attach_interval(tick).map_err(|e| LearnerError::Wait(format!("{e:?}")))?;
 
-    let run_id = run_id_bytes(&cfg.run_id);
     let shape = EpisodeShape {
         zeta_dim: d,
         cap: learner.config().episode_cap,
         n_states: cfg.env.sampler().n_states(),
         n_actions: cfg.env.sampler().n_actions(),
     };
-    let mut stats = LinkStats::default();
-    let mut workers = Assignments::new(cfg.worker_timeout);
-    let mut last_refusal: Option<(u32, u32, Instant)> = None;
-    let mut k = learner.k();
-    while (k as usize) < spec.config.iterations {
-        let zeta_k = learner.zeta().to_vec();
-        end.publish_weights(k, learner.alpha(), &zeta_k, learner.actor().params())?;
-        let mut done: BTreeMap<EpisodeId, Episode> = BTreeMap::new();
-        workers.start_iteration(k, &ids);
-        workers.dispatch(&end)?;
-        end.notify_workers()?;
-        let mut last_arrival = Instant::now();
-        while done.len() < ids.len() {
-            let r = waitset
-                .wait_and_process_once_with_timeout(|_| CallbackProgression::Continue, tick)
-                .map_err(|e| LearnerError::Wait(format!("{e:?}")))?;
-            if matches!(r, WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt) {
-                let _ = end.announce(d, true);
-                // The iteration in flight is dropped; the k completed ones are kept.
-                write_checkpoint(cfg, &learner.state(), &rec)?;
-                return Err(LearnerError::Terminated(k));
-            }
-            end.drain_wakeups();
-            end.refresh();
-            for h in end.receive_hellos()? {
-                if h.magic != envpg_protocol::MAGIC || h.run_id != run_id {
-                    stats.refused += 1;
-                    continue;
-                }
-                match h.kind {
-                    hello_kind::REFUSE => {
-                        stats.protocol_refusals += 1;
-                        last_refusal = Some((h.worker_id, h.protocol, Instant::now()));
-                        tracing::error!(
-                            "worker {} refused the run: it speaks protocol version {}, this learner speaks version {PROTOCOL_VERSION}",
-                            h.worker_id,
-                            h.protocol
-                        );
-                    }
-                    _ if h.protocol != PROTOCOL_VERSION => stats.refused += 1,
-                    hello_kind::JOIN => {
-                        stats.workers_lost += workers.join(h.worker_id, h.incarnation, &mut stats.reassigned)
-                    }
-                    hello_kind::HEARTBEAT => workers.heartbeat(h.worker_id, h.incarnation),
-                    hello_kind::LEAVE => {
-                        stats.workers_lost += workers.leave(h.worker_id, h.incarnation, &mut stats.reassigned)
-                    }
-                    _ => stats.refused += 1,
-                }
-            }
-            end.receive_episodes(|h, recs| {
-                if h.protocol != PROTOCOL_VERSION || h.run_id != run_id {
-                    stats.refused += 1;
-                    return;
-                }
-                if h.k != k {
-                    stats.stale += 1;
-                    return;
-                }
-                if !ids.contains(&h.episode) || !workers.was_handed(&h.episode, h.worker_id) {
-                    stats.refused += 1;
-                    return;
-                }
-                let std::collections::btree_map::Entry::Vacant(slot) = done.entry(h.episode) else {
-                    stats.duplicates += 1;
-                    return;
-                };
-                match episode_from(h, recs, &shape) {
-                    Ok(ep) => {
-                        workers.completed(&h.episode);
-                        stats.transitions += ep.len() as u64;
-                        slot.insert(ep);
-                        stats.episodes += 1;
-                        last_arrival = Instant::now();
-                    }
-                    Err(reason) => {
-                        // The first is a warning; the rest are counted, so a flood of bad
-                        // episodes cannot flood the log (or block on a full stderr pipe).
-                        if stats.refused_contents == 0 {
-                            tracing::warn!(
-                                "refusing episode {:?} from worker {}: {reason} (further ones are counted in the result's details)",
-                                h.episode,
-                                h.worker_id
-                            );
-                        } else {
-                            tracing::debug!("refusing episode {:?} from worker {}: {reason}", h.episode, h.worker_id);
-                        }
-                        stats.refused_contents += 1;
-                        stats.refused += 1;
-                    }
-                }
-            })?;
-            let lost = workers.expire(&mut stats.reassigned);
-            if lost > 0 {
-                stats.workers_lost += lost;
-                end.cleanup_dead_nodes();
-            }
-            workers.dispatch(&end)?;
-            end.notify_workers()?;
-            // Workers that refused our protocol are not coming back: with nobody else to do the
-            // work, say so instead of waiting out the stall timeout.
-            if let (Some((worker, v, when)), 0) = (last_refusal, workers.live())
-                && when.elapsed() > cfg.worker_timeout
-            {
-                return Err(LearnerError::Protocol { worker, worker_version: v, learner_version: PROTOCOL_VERSION });
-            }
-            if done.len() < ids.len() && last_arrival.elapsed() > cfg.stall_timeout {
-                return Err(LearnerError::Stalled {
-                    k,
-                    seconds: last_arrival.elapsed().as_secs_f64(),
-                    pending: ids.len() - done.len(),
-                    live: workers.live(),
-                });
+    let mut link = Link {
+        cfg,
+        end: &end,
+        waitset: &waitset,
+        tick,
+        ids: &ids,
+        shape,
+        run_id: run_id_bytes(&cfg.run_id),
+        stats: LinkStats::default(),
+        workers: Assignments::new(cfg.worker_timeout),
+        last_refusal: None,
+    };
+    let total = spec.config.iterations as u64;
+    // Stops the run on SIGINT/SIGTERM: the k completed iterations are kept, the one in flight
+    // is dropped (a lagged run samples it again, with the same weights, when resumed).
+    let terminated = |learner: &envpg_ac::Learner, rec: &Recorder| -> LearnerError {
+        let _ = end.announce(d, true);
+        match write_checkpoint(cfg, &learner.state(), rec) {
+            Ok(()) => LearnerError::Terminated(learner.k()),
+            Err(e) => e,
+        }
+    };
+    if cfg.collect_only {
+        // Rollouts and transport alone: every iteration sampled with the initial weights.
+        for k in learner.k()..total {
+            end.publish_weights(k, learner.alpha(), learner.zeta(), learner.actor().params())?;
+            if let Collected::Terminated = link.collect(k)? {
+                return Err(terminated(&learner, &rec));
             }
         }
-        if cfg.collect_only {
-            k += 1;
-            continue;
-        }
-        let mut table = learner.policy_table();
-        let episodes: Vec<Episode> = done.into_values().collect();
-        let st = learner.update(&Batch { k, episodes }).map_err(TrainError::from)?;
-        let p = rec.record(&zeta_k, &mut table, &st);
+        end.announce(d, true)?;
+        let details = serde_json::json!({ "mode": "workers", "link": link.stats });
+        return Ok((rec.finish_unpolished(&learner, "envpg-ac", details), link.stats));
+    }
+    // Records an update, checkpoints on schedule and reports progress.
+    let mut after_update = |learner: &envpg_ac::Learner,
+                            rec: &mut Recorder,
+                            zeta_k: &[f64],
+                            table: &mut envpg_ac::PolicyTable,
+                            st: &envpg_ac::Stats|
+     -> Result<(), LearnerError> {
+        let p = rec.record(zeta_k, table, st);
         let every = cfg.checkpoint.as_ref().map_or(0, |cp| cp.every);
-        if (every > 0 && learner.k() % every == 0) || learner.k() as usize == spec.config.iterations {
-            write_checkpoint(cfg, &learner.state(), &rec)?;
+        if (every > 0 && learner.k().is_multiple_of(every)) || learner.k() == total {
+            write_checkpoint(cfg, &learner.state(), rec)?;
         }
         if !progress(&p) {
             let _ = end.announce(d, true);
-            write_checkpoint(cfg, &learner.state(), &rec)?;
+            write_checkpoint(cfg, &learner.state(), rec)?;
             return Err(LearnerError::Stopped(learner.k()));
         }
-        k = learner.k();
+        Ok(())
+    };
+    // With a policy lag: the batch of iteration `learner.k()`, gathered but not yet learnt from.
+    let mut pending: Option<Vec<Episode>> = None;
+    loop {
+        let k = learner.k();
+        let Some(episodes) = pending.take() else {
+            if k >= total {
+                break;
+            }
+            // Nothing gathered ahead (the first iteration, lag 0, or a resumed run): sample
+            // batch k with the weights it calls for, then learn from it or keep it.
+            let b = learner.behaviour();
+            end.publish_weights(k, b.alpha, b.zeta, b.actor)?;
+            let Collected::Batch(episodes) = link.collect(k)? else {
+                return Err(terminated(&learner, &rec));
+            };
+            if spec.config.lag == 0 {
+                let (st, zeta_k, mut table) = update_now(&mut learner, episodes, &mut link.stats)?;
+                after_update(&learner, &mut rec, &zeta_k, &mut table, &st)?;
+            } else {
+                pending = Some(episodes);
+            }
+            continue;
+        };
+        if k + 1 == total {
+            // The last batch: nothing left to gather while learning from it.
+            let (st, zeta_k, mut table) = update_now(&mut learner, episodes, &mut link.stats)?;
+            after_update(&learner, &mut rec, &zeta_k, &mut table, &st)?;
+            continue;
+        }
+        // Lag 1: batch k + 1 is sampled with θ_k, ζ_k, α_k — the weights the update of batch k
+        // starts from, and so the learner's behaviour once it is done — while that update runs.
+        let (mut table, zeta_k) = (learner.policy_table(), learner.zeta().to_vec());
+        end.publish_weights(k + 1, learner.alpha(), &zeta_k, learner.actor().params())?;
+        let ((st, seconds), next) = std::thread::scope(|scope| {
+            let learner = &mut learner;
+            let update = scope.spawn(move || {
+                let started = Instant::now();
+                (learner.update(&Batch { k, episodes }), started.elapsed().as_secs_f64())
+            });
+            let next = link.collect(k + 1);
+            (update.join().expect("the update thread"), next)
+        });
+        link.stats.update_seconds += seconds;
+        let st = st.map_err(TrainError::from)?;
+        after_update(&learner, &mut rec, &zeta_k, &mut table, &st)?;
+        match next? {
+            Collected::Batch(episodes) => pending = Some(episodes),
+            Collected::Terminated => return Err(terminated(&learner, &rec)),
+        }
     }
     end.announce(d, true)?;
-    let details = serde_json::json!({ "mode": "workers", "link": stats });
-    // A collect-only run measures rollouts and transport: its result is not polished.
-    let result = if cfg.collect_only {
-        rec.finish_unpolished(&learner, "envpg-ac", details)
-    } else {
-        rec.finish(&learner, "envpg-ac", details)
-    };
-    Ok((result, stats))
+    let details = serde_json::json!({ "mode": "workers", "link": link.stats });
+    let result = rec.finish(&learner, "envpg-ac", details);
+    Ok((result, link.stats))
+}
+
+/// Updates on the learner's current batch with nothing to gather meanwhile; returns the
+/// statistics with ζ_k and π_θk from before the update (what the history records).
+fn update_now(
+    learner: &mut envpg_ac::Learner,
+    episodes: Vec<Episode>,
+    stats: &mut LinkStats,
+) -> Result<(envpg_ac::Stats, Vec<f64>, envpg_ac::PolicyTable<'static>), LearnerError> {
+    let (table, zeta_k) = (learner.policy_table(), learner.zeta().to_vec());
+    let started = Instant::now();
+    let st = learner.update(&Batch { k: learner.k(), episodes }).map_err(TrainError::from)?;
+    stats.update_seconds += started.elapsed().as_secs_f64();
+    Ok((st, zeta_k, table))
 }
 
 /// Announces the end of the run when dropped.
@@ -455,60 +390,4 @@ fn write_checkpoint(cfg: &LearnerConfig, st: &LearnerState, rec: &Recorder) -> R
 /// Reads the set of episode ids of an iteration (for tests and tools).
 pub fn iteration_ids(spec: &RunSpec) -> BTreeSet<EpisodeId> {
     episode_ids(&spec.config).map(|(kind, e)| episode_id(kind, e)).collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn message(n: usize) -> (EpisodeHeader, Vec<StepRecord>) {
-        let h = EpisodeHeader { len: n as u32, zeta_dim: 2, ..Default::default() };
-        let r = StepRecord { s: 1, a: 0, s2: 2, cost: 0.5, zeta: [0.25; envpg_protocol::MAX_ZETA] };
-        (h, vec![r; n])
-    }
-
-    const SHAPE: EpisodeShape = EpisodeShape { zeta_dim: 2, cap: 8, n_states: 3, n_actions: 2 };
-
-    #[test]
-    fn well_formed_episodes_are_accepted() {
-        let (h, recs) = message(4);
-        let ep = episode_from(&h, &recs, &SHAPE).unwrap();
-        assert_eq!((ep.len(), ep.zeta.len()), (4, 8));
-    }
-
-    #[test]
-    fn every_kind_of_malformed_episode_is_refused_with_its_reason() {
-        type Break = Box<dyn Fn(&mut EpisodeHeader, &mut Vec<StepRecord>)>;
-        let cases: Vec<(&str, Break)> = vec![
-            ("records", Box::new(|h, _| h.len = 5)),
-            (
-                "records",
-                Box::new(|h, r| {
-                    r.extend(r.clone().iter().cycle().take(6));
-                    h.len = r.len() as u32;
-                }),
-            ),
-            (
-                "records",
-                Box::new(|h, r| {
-                    r.clear();
-                    h.len = 0;
-                }),
-            ),
-            ("dimension", Box::new(|h, _| h.zeta_dim = 64)),
-            ("outside", Box::new(|_, r| r[2].s = 3)),
-            ("outside", Box::new(|_, r| r[0].s2 = u32::MAX)),
-            ("outside", Box::new(|_, r| r[3].a = 2)),
-            ("not finite", Box::new(|_, r| r[1].cost = f32::NAN)),
-            ("not finite", Box::new(|_, r| r[1].cost = f32::INFINITY)),
-            ("not finite", Box::new(|_, r| r[0].zeta[1] = f32::NEG_INFINITY)),
-            ("capped", Box::new(|h, _| h.capped = 7)),
-        ];
-        for (why, break_it) in cases {
-            let (mut h, mut recs) = message(4);
-            break_it(&mut h, &mut recs);
-            let e = episode_from(&h, &recs, &SHAPE).expect_err(why);
-            assert!(e.contains(why), "{why}: {e}");
-        }
-    }
 }

@@ -59,8 +59,9 @@ pub use checkpoint::{Checkpoint, CheckpointError};
 use iceoryx2::prelude::*;
 
 /// Version of this protocol. Bump on any change to a type below or to the run description
-/// peers exchange (version 2: the run names its environment and carries its instance).
-pub const PROTOCOL_VERSION: u32 = 2;
+/// peers exchange (version 2: the run names its environment and carries its instance; 3: the
+/// run settings and the checkpointed learner state carry the policy lag).
+pub const PROTOCOL_VERSION: u32 = 3;
 
 /// Marks envpg messages in the version-agnostic types (a fixed tag, not a version).
 pub const MAGIC: u64 = 0x656e_7670_675f_7631; // "envpg_v1"
