@@ -355,11 +355,8 @@ impl LearnerBridge {
     fn relay_episode(&mut self, e: &EpisodeMsg) -> Result<(), BridgeError> {
         let parts = e.to_parts().and_then(|p| {
             let cap = self.proxy.info().episode_cap;
-            if p.1.len() > cap as usize {
-                Err(BridgeError::Codec {
-                    what: "episode",
-                    reason: format!("{} steps, over the cap of {cap}", p.1.len()),
-                })
+            if p.0.len > cap {
+                Err(BridgeError::Codec { what: "episode", reason: format!("{} steps, over the cap of {cap}", p.0.len) })
             } else {
                 Ok(p)
             }
@@ -373,11 +370,11 @@ impl LearnerBridge {
                 &mut self.stats.unasked,
                 format_args!("episode {:?} of iteration {}, not asked of worker {}", e.episode, e.k, e.worker_id),
             ),
-            Ok((mut header, records)) => {
+            Ok((mut header, words)) => {
                 header.run_id = run_id_bytes(self.proxy.run_id());
-                self.stats.transitions += records.len() as u64;
+                self.stats.transitions += u64::from(header.len);
                 self.stats.episodes += 1;
-                self.proxy.publish_episode(header, records.into_iter())?;
+                self.proxy.publish_episode(header, &words)?;
             }
         }
         Ok(())

@@ -292,9 +292,9 @@ impl RemoteBridge {
                 }
             }
             let mut bad = None;
-            m.receive_episodes(|h, recs| {
+            m.receive_episodes(|h, words| {
                 if h.worker_id < workers {
-                    match encode("up", &Up::Episode(EpisodeMsg::from_parts(h, recs, base + h.worker_id))) {
+                    match encode("up", &Up::Episode(EpisodeMsg::from_parts(h, words, base + h.worker_id))) {
                         Ok(b) => {
                             up.push(b);
                             episodes += 1;

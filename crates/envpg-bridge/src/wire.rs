@@ -6,7 +6,8 @@
 //! which [`peek_version`] reads before anything else is decoded.
 
 use envpg_protocol::{
-    EpisodeHeader, EpisodeId, Hello, MAX_ZETA, PROTOCOL_VERSION, StepRecord, TaskHeader, WeightsHeader,
+    EpisodeHeader, EpisodeId, Hello, MAX_ZETA, PROTOCOL_VERSION, TaskHeader, WeightsHeader, read_step, step_words,
+    write_step,
 };
 use serde::{Deserialize, Serialize};
 
@@ -234,7 +235,7 @@ impl HelloMsg {
 
 impl EpisodeMsg {
     /// From an iceoryx2 episode message, re-addressed to global worker id `worker_id`.
-    pub fn from_parts(h: &EpisodeHeader, records: &[StepRecord], worker_id: u32) -> Self {
+    pub fn from_parts(h: &EpisodeHeader, words: &[u32], worker_id: u32) -> Self {
         let d = (h.zeta_dim as usize).min(MAX_ZETA);
         Self {
             worker_id,
@@ -243,27 +244,31 @@ impl EpisodeMsg {
             seq: h.seq,
             capped: h.capped != 0,
             zeta_dim: h.zeta_dim,
-            steps: records
-                .iter()
-                .map(|r| Step { s: r.s, a: r.a, s2: r.s2, cost: r.cost, zeta: r.zeta[..d].to_vec() })
+            steps: words
+                .chunks_exact(step_words(d))
+                .map(|rec| {
+                    let (r, zeta) = read_step(rec);
+                    Step { s: r.s, a: r.a, s2: r.s2, cost: r.cost, zeta: zeta.collect() }
+                })
                 .collect(),
         }
     }
 
-    /// The iceoryx2 header (run id filled in by the sender) and records.
-    pub fn to_parts(&self) -> Result<(EpisodeHeader, Vec<StepRecord>), BridgeError> {
+    /// The iceoryx2 header (run id filled in by the sender) and payload words.
+    pub fn to_parts(&self) -> Result<(EpisodeHeader, Vec<u32>), BridgeError> {
         let bad = |reason: String| BridgeError::Codec { what: "episode", reason };
-        if self.zeta_dim as usize > MAX_ZETA {
+        let d = self.zeta_dim as usize;
+        if d > MAX_ZETA {
             return Err(bad(format!("ζ dimension {} exceeds {MAX_ZETA}", self.zeta_dim)));
         }
-        let mut records = Vec::with_capacity(self.steps.len());
-        for st in &self.steps {
-            if st.zeta.len() != self.zeta_dim as usize {
+        let w = step_words(d);
+        let mut words = vec![0u32; self.steps.len() * w];
+        for (st, out) in self.steps.iter().zip(words.chunks_exact_mut(w)) {
+            if st.zeta.len() != d {
                 return Err(bad(format!("a step carries {} ζ entries, expected {}", st.zeta.len(), self.zeta_dim)));
             }
-            let mut zeta = [0.0f32; MAX_ZETA];
-            zeta[..st.zeta.len()].copy_from_slice(&st.zeta);
-            records.push(StepRecord { s: st.s, a: st.a, s2: st.s2, cost: st.cost, zeta });
+            let step = envpg_protocol::Step { s: st.s, a: st.a, s2: st.s2, cost: st.cost };
+            write_step(out, step, &st.zeta);
         }
         let header = EpisodeHeader {
             protocol: PROTOCOL_VERSION,
@@ -272,12 +277,12 @@ impl EpisodeMsg {
             k: self.k,
             episode: EpisodeId { kind: self.episode.0, index: self.episode.1 },
             seq: self.seq,
-            len: records.len() as u32,
+            len: self.steps.len() as u32,
             capped: u32::from(self.capped),
             zeta_dim: self.zeta_dim,
             _pad: 0,
         };
-        Ok((header, records))
+        Ok((header, words))
     }
 }
 
@@ -287,9 +292,10 @@ mod tests {
 
     #[test]
     fn episodes_round_trip_through_the_wire_with_only_the_used_zeta_entries() {
-        let mut zeta = [0.0f32; MAX_ZETA];
-        zeta[..4].copy_from_slice(&[1.0, 2.0, 3.0, 4.0]);
-        let rec = StepRecord { s: 3, a: 1, s2: 7, cost: 0.5, zeta };
+        let mut words = vec![0u32; 2 * step_words(4)];
+        for rec in words.chunks_exact_mut(step_words(4)) {
+            write_step(rec, envpg_protocol::Step { s: 3, a: 1, s2: 7, cost: 0.5 }, &[1.0, 2.0, 3.0, 4.0]);
+        }
         let h = EpisodeHeader {
             protocol: PROTOCOL_VERSION,
             worker_id: 2,
@@ -302,14 +308,14 @@ mod tests {
             zeta_dim: 4,
             _pad: 0,
         };
-        let msg = Up::Episode(EpisodeMsg::from_parts(&h, &[rec, rec], 1002));
+        let msg = Up::Episode(EpisodeMsg::from_parts(&h, &words, 1002));
         let bytes = encode("episode", &msg).unwrap();
-        // 4 of the 64 ζ entries travel: a step is ~20 bytes, not 272.
+        // A step is ~20 bytes on the wire.
         assert!(bytes.len() < 2 * 40, "{} bytes", bytes.len());
         let Up::Episode(back) = decode::<Up>("episode", &bytes).unwrap() else { panic!("not an episode") };
         let (h2, recs) = back.to_parts().unwrap();
         assert_eq!((h2.worker_id, h2.k, h2.episode, h2.seq, h2.len, h2.capped), (1002, 9, h.episode, 11, 2, 1));
-        assert_eq!(recs, [rec, rec]);
+        assert_eq!(recs, words);
     }
 
     #[test]

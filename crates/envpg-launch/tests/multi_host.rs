@@ -341,7 +341,8 @@ fn a_worker_host_of_another_protocol_version_is_refused() {
     let learner = hosts.learner(&args);
     let (code, err) = refused_worker_host(&hosts, &["--protocol-version", "99"], "worker host of another version");
     assert_eq!(code, Some(2), "{err}");
-    assert!(err.contains("v2") && err.contains("v99"), "{err}");
+    let ours = format!("v{}", envpg_protocol::PROTOCOL_VERSION);
+    assert!(err.contains(&ours) && err.contains("v99"), "{err}");
     // The run is not corrupted: a host of the right version joins and it ends as in-process.
     let remote = hosts.worker_host(1);
     let lo = wait(learner, Duration::from_secs(120), "learner host");

@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use envpg_ac::rollout::Episode;
-use envpg_protocol::{EpisodeHeader, EpisodeId, PROTOCOL_VERSION, StepRecord, hello_kind};
+use envpg_protocol::{EpisodeHeader, EpisodeId, PROTOCOL_VERSION, hello_kind, read_step, step_words};
 use envpg_transport::LearnerEnd;
 use iceoryx2::prelude::*;
 use iceoryx2::waitset::{WaitSet, WaitSetRunResult};
@@ -34,18 +34,28 @@ pub struct EpisodeShape {
 /// Converts a received episode message to an [`Episode`], checking everything it carries: its
 /// shape, every state and action in range, every cost and perturbed ζ finite. A malformed
 /// message (a broken or hostile peer) is refused whole, with the reason.
-pub fn episode_from(h: &EpisodeHeader, recs: &[StepRecord], shape: &EpisodeShape) -> Result<Episode, String> {
+pub fn episode_from(h: &EpisodeHeader, words: &[u32], shape: &EpisodeShape) -> Result<Episode, String> {
     let (d, cap) = (shape.zeta_dim, shape.cap);
     if h.zeta_dim as usize != d {
         return Err(format!("ζ dimension {} instead of {d}", h.zeta_dim));
     }
-    if recs.len() != h.len as usize || recs.len() > cap || recs.is_empty() {
-        return Err(format!("{} records (header says {}, cap {cap})", recs.len(), h.len));
+    let w = step_words(d);
+    let n = h.len as usize;
+    if words.len() != n * w || n > cap || n == 0 {
+        return Err(format!("{} words for {n} records of {w} words (cap {cap} records)", words.len()));
     }
     if h.capped > 1 {
         return Err(format!("capped flag {}", h.capped));
     }
-    for (t, r) in recs.iter().enumerate() {
+    let mut ep = Episode {
+        index: h.episode.index,
+        explore: h.episode.kind != 0,
+        capped: h.capped != 0,
+        zeta: Vec::with_capacity(n * d),
+        ..Default::default()
+    };
+    for (t, rec) in words.chunks_exact(w).enumerate() {
+        let (r, zeta) = read_step(rec);
         let (s, a, s2) = (r.s as usize, r.a as usize, r.s2 as usize);
         if s >= shape.n_states || s2 >= shape.n_states || a >= shape.n_actions {
             return Err(format!(
@@ -53,18 +63,15 @@ pub fn episode_from(h: &EpisodeHeader, recs: &[StepRecord], shape: &EpisodeShape
                 shape.n_states, shape.n_actions
             ));
         }
-        if !r.cost.is_finite() || r.zeta[..d].iter().any(|z| !z.is_finite()) {
+        let at = ep.zeta.len();
+        ep.zeta.extend(zeta);
+        if !r.cost.is_finite() || ep.zeta[at..].iter().any(|z| !z.is_finite()) {
             return Err(format!("step {t}: a cost or ζ coordinate is not finite"));
         }
-    }
-    let mut ep =
-        Episode { index: h.episode.index, explore: h.episode.kind != 0, capped: h.capped != 0, ..Default::default() };
-    for r in recs {
         ep.s.push(r.s);
         ep.a.push(r.a);
         ep.s2.push(r.s2);
         ep.cost.push(r.cost);
-        ep.zeta.extend_from_slice(&r.zeta[..d]);
     }
     Ok(ep)
 }
@@ -119,7 +126,7 @@ where
             end.refresh();
             self.take_hellos()?;
             let (stats, workers, shape) = (&mut self.stats, &mut self.workers, &self.shape);
-            end.receive_episodes(|h, recs| {
+            end.receive_episodes(|h, words| {
                 if h.protocol != PROTOCOL_VERSION || h.run_id != run_id {
                     stats.refused += 1;
                     return;
@@ -136,7 +143,7 @@ where
                     stats.duplicates += 1;
                     return;
                 };
-                match episode_from(h, recs, shape) {
+                match episode_from(h, words, shape) {
                     Ok(ep) => {
                         workers.completed(&h.episode);
                         stats.transitions += ep.len() as u64;
@@ -224,10 +231,18 @@ where
 mod tests {
     use super::*;
 
-    fn message(n: usize) -> (EpisodeHeader, Vec<StepRecord>) {
+    fn message(n: usize) -> (EpisodeHeader, Vec<u32>) {
         let h = EpisodeHeader { len: n as u32, zeta_dim: 2, ..Default::default() };
-        let r = StepRecord { s: 1, a: 0, s2: 2, cost: 0.5, zeta: [0.25; envpg_protocol::MAX_ZETA] };
-        (h, vec![r; n])
+        let mut words = vec![0u32; n * step_words(2)];
+        for rec in words.chunks_exact_mut(step_words(2)) {
+            envpg_protocol::write_step(rec, envpg_protocol::Step { s: 1, a: 0, s2: 2, cost: 0.5 }, &[0.25, 0.25]);
+        }
+        (h, words)
+    }
+
+    /// Word `i` of record `t` (0 s, 1 a, 2 s', 3 cost, 4.. ζ).
+    fn word(t: usize, i: usize) -> usize {
+        t * step_words(2) + i
     }
 
     const SHAPE: EpisodeShape = EpisodeShape { zeta_dim: 2, cap: 8, n_states: 3, n_actions: 2 };
@@ -237,34 +252,36 @@ mod tests {
         let (h, recs) = message(4);
         let ep = episode_from(&h, &recs, &SHAPE).unwrap();
         assert_eq!((ep.len(), ep.zeta.len()), (4, 8));
+        assert_eq!((ep.s[3], ep.a[3], ep.s2[3], ep.cost[3], ep.zeta[7]), (1, 0, 2, 0.5, 0.25));
     }
 
     #[test]
     fn every_kind_of_malformed_episode_is_refused_with_its_reason() {
-        type Break = Box<dyn Fn(&mut EpisodeHeader, &mut Vec<StepRecord>)>;
+        type Break = Box<dyn Fn(&mut EpisodeHeader, &mut Vec<u32>)>;
         let cases: Vec<(&str, Break)> = vec![
-            ("records", Box::new(|h, _| h.len = 5)),
+            ("words", Box::new(|h, _| h.len = 5)),
             (
-                "records",
+                "words",
                 Box::new(|h, r| {
-                    r.extend(r.clone().iter().cycle().take(6));
-                    h.len = r.len() as u32;
+                    r.extend(r.clone().iter().cycle().take(6 * step_words(2)));
+                    h.len = (r.len() / step_words(2)) as u32;
                 }),
             ),
             (
-                "records",
+                "words",
                 Box::new(|h, r| {
                     r.clear();
                     h.len = 0;
                 }),
             ),
+            ("words", Box::new(|_, r| r.truncate(r.len() - 1))),
             ("dimension", Box::new(|h, _| h.zeta_dim = 64)),
-            ("outside", Box::new(|_, r| r[2].s = 3)),
-            ("outside", Box::new(|_, r| r[0].s2 = u32::MAX)),
-            ("outside", Box::new(|_, r| r[3].a = 2)),
-            ("not finite", Box::new(|_, r| r[1].cost = f32::NAN)),
-            ("not finite", Box::new(|_, r| r[1].cost = f32::INFINITY)),
-            ("not finite", Box::new(|_, r| r[0].zeta[1] = f32::NEG_INFINITY)),
+            ("outside", Box::new(|_, r| r[word(2, 0)] = 3)),
+            ("outside", Box::new(|_, r| r[word(0, 2)] = u32::MAX)),
+            ("outside", Box::new(|_, r| r[word(3, 1)] = 2)),
+            ("not finite", Box::new(|_, r| r[word(1, 3)] = f32::NAN.to_bits())),
+            ("not finite", Box::new(|_, r| r[word(1, 3)] = f32::INFINITY.to_bits())),
+            ("not finite", Box::new(|_, r| r[word(0, 5)] = f32::NEG_INFINITY.to_bits())),
             ("capped", Box::new(|h, _| h.capped = 7)),
         ];
         for (why, break_it) in cases {

@@ -13,7 +13,7 @@ use envpg_ac::AcConfig;
 use envpg_ac::trainer::RunSpec;
 use envpg_core::{LoadedEnv, ResultFile};
 use envpg_learner::{LearnerConfig, LinkStats, run_learner};
-use envpg_protocol::{EpisodeHeader, EpisodeId, MAX_ZETA, PROTOCOL_VERSION, StepRecord, run_id_bytes};
+use envpg_protocol::{EpisodeHeader, EpisodeId, PROTOCOL_VERSION, Step, run_id_bytes, step_words, write_step};
 use envpg_transport::{WorkerEnd, local};
 use envpg_worker::{WorkerConfig, run_worker};
 
@@ -34,7 +34,20 @@ fn spec(env: &LoadedEnv) -> RunSpec {
 
 /// Publishes one malformed message of every kind for iteration `k` (and a few around it).
 fn attack(end: &WorkerEnd<local::Service>, run_id: &str, k: u64, d: usize, n_states: u32, n_actions: u32) -> u64 {
-    let good = StepRecord { s: 0, a: 0, s2: 0, cost: 1.0, zeta: [0.5; MAX_ZETA] };
+    let good = Step { s: 0, a: 0, s2: 0, cost: 1.0 };
+    let zeta = vec![0.5f32; d];
+    // The words of steps at ζ_pert = zeta (nan_zeta: with a NaN first coordinate).
+    let words = |steps: &[Step], nan_zeta: bool| {
+        let mut z = zeta.clone();
+        if nan_zeta {
+            z[0] = f32::NAN;
+        }
+        let mut out = vec![0u32; steps.len() * step_words(d)];
+        for (rec, st) in out.chunks_exact_mut(step_words(d)).zip(steps) {
+            write_step(rec, *st, &z);
+        }
+        out
+    };
     let header = |k: u64, index: u32, len: usize| EpisodeHeader {
         protocol: PROTOCOL_VERSION,
         // Forged: the rogue claims to be a worker slot that was never handed anything.
@@ -49,34 +62,36 @@ fn attack(end: &WorkerEnd<local::Service>, run_id: &str, k: u64, d: usize, n_sta
         _pad: 0,
     };
     let mut sent = 0;
-    let mut send = |h: EpisodeHeader, recs: Vec<StepRecord>| {
-        if end.publish_episode(h, recs.into_iter()).is_ok() {
+    let mut send = |h: EpisodeHeader, recs: Vec<u32>| {
+        if end.publish_episode(h, &recs).is_ok() {
             sent += 1;
         }
     };
+    let one = |st: Step| words(&[st], false);
     for index in 0..4 {
-        send(header(k, index, 3), vec![good; 2]); // length disagrees with the header
-        send(header(k, index, 1), vec![StepRecord { s: n_states, ..good }]);
-        send(header(k, index, 1), vec![StepRecord { s2: u32::MAX, ..good }]);
-        send(header(k, index, 1), vec![StepRecord { a: n_actions, ..good }]);
-        send(header(k, index, 1), vec![StepRecord { cost: f32::NAN, ..good }]);
-        send(header(k, index, 1), vec![StepRecord { cost: f32::INFINITY, ..good }]);
-        let mut z = good;
-        z.zeta[0] = f32::NAN;
-        send(header(k, index, 1), vec![z]);
-        send(EpisodeHeader { zeta_dim: d as u32 + 1, ..header(k, index, 1) }, vec![good]);
+        send(header(k, index, 3), words(&[good; 2], false)); // length disagrees with the header
+        send(header(k, index, 1), one(Step { s: n_states, ..good }));
+        send(header(k, index, 1), one(Step { s2: u32::MAX, ..good }));
+        send(header(k, index, 1), one(Step { a: n_actions, ..good }));
+        send(header(k, index, 1), one(Step { cost: f32::NAN, ..good }));
+        send(header(k, index, 1), one(Step { cost: f32::INFINITY, ..good }));
+        send(header(k, index, 1), words(&[good], true));
+        send(EpisodeHeader { zeta_dim: d as u32 + 1, ..header(k, index, 1) }, one(good));
+        let mut short = one(good);
+        short.pop(); // a record cut short
+        send(header(k, index, 1), short);
         send(EpisodeHeader { worker_id: 0, len: 0, ..header(k, index, 0) }, vec![]);
-        send(EpisodeHeader { run_id: run_id_bytes("someone-else"), ..header(k, index, 1) }, vec![good]);
-        send(EpisodeHeader { protocol: PROTOCOL_VERSION + 7, ..header(k, index, 1) }, vec![good]);
-        send(EpisodeHeader { capped: 9, ..header(k, index, 1) }, vec![good]);
+        send(EpisodeHeader { run_id: run_id_bytes("someone-else"), ..header(k, index, 1) }, one(good));
+        send(EpisodeHeader { protocol: PROTOCOL_VERSION + 7, ..header(k, index, 1) }, one(good));
+        send(EpisodeHeader { capped: 9, ..header(k, index, 1) }, one(good));
     }
     // Well-formed but forged: a future iteration, a past one, no such episode, and this
     // iteration's episodes from a worker they were never handed to.
-    send(header(k + 1, 0, 1), vec![good]);
-    send(header(k.saturating_sub(1), 0, 1), vec![good]);
-    send(header(k, 1_000_000, 1), vec![good]);
+    send(header(k + 1, 0, 1), one(good));
+    send(header(k.saturating_sub(1), 0, 1), one(good));
+    send(header(k, 1_000_000, 1), one(good));
     for index in 0..4 {
-        send(header(k, index, 1), vec![good]);
+        send(header(k, index, 1), one(good));
     }
     let _ = end.notify_learner();
     sent

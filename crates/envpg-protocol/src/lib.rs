@@ -10,7 +10,7 @@
 //! | [`ServiceNames::hello`] | workers → learner | — | [`Hello`] (join, heartbeat, leave) |
 //! | [`ServiceNames::weights`] | learner → workers | [`WeightsHeader`] | `[f32]` actor θ_k (history 1) |
 //! | [`ServiceNames::tasks`] | learner → workers | [`TaskHeader`] | `[EpisodeId]` |
-//! | [`ServiceNames::episodes`] | workers → learner | [`EpisodeHeader`] | `[StepRecord]` |
+//! | [`ServiceNames::episodes`] | workers → learner | [`EpisodeHeader`] | `[u32]`: per step [`step_words`]`(d)` words ([`write_step`]) |
 //!
 //! plus event services ([`ServiceNames::learner_wakeup`], [`ServiceNames::worker_wakeup`]) that
 //! wake the other side's WaitSet once per message, never per record.
@@ -237,11 +237,10 @@ pub struct EpisodeHeader {
     pub _pad: u32,
 }
 
-/// One step of an episode: (s, a, s', c, ζ_pert).
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[repr(C)]
-#[type_name("envpg.v2.StepRecord")]
-pub struct StepRecord {
+/// One step of an episode: (s, a, s', c). Its perturbed design ζ_pert travels beside it in an
+/// episode message ([`write_step`], [`read_step`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Step {
     /// s_t.
     pub s: u32,
     /// a_t.
@@ -250,8 +249,28 @@ pub struct StepRecord {
     pub s2: u32,
     /// c_t.
     pub cost: f32,
-    /// ζ_pert of the step (first `zeta_dim` entries).
-    pub zeta: [f32; MAX_ZETA],
+}
+
+/// Words (u32) per step of an episode message whose designs have `zeta_dim` coordinates: s,
+/// a, s', the bits of the f32 cost, then the bits of the step's f32 ζ_pert — a message is
+/// sized to the run's ζ, not to [`MAX_ZETA`] (56 bytes a step for ζ ∈ ℝ¹⁰).
+pub const fn step_words(zeta_dim: usize) -> usize {
+    4 + zeta_dim
+}
+
+/// Writes `step` and its ζ_pert into `out`, which holds [`step_words`]`(zeta.len())` words.
+pub fn write_step(out: &mut [u32], step: Step, zeta: &[f32]) {
+    debug_assert_eq!(out.len(), step_words(zeta.len()), "step record size");
+    out[..4].copy_from_slice(&[step.s, step.a, step.s2, step.cost.to_bits()]);
+    for (o, z) in out[4..].iter_mut().zip(zeta) {
+        *o = z.to_bits();
+    }
+}
+
+/// Reads a step and its ζ_pert back from the [`step_words`] words [`write_step`] wrote.
+pub fn read_step(words: &[u32]) -> (Step, impl ExactSizeIterator<Item = f32> + '_) {
+    let step = Step { s: words[0], a: words[1], s2: words[2], cost: f32::from_bits(words[3]) };
+    (step, words[4..].iter().map(|&w| f32::from_bits(w)))
 }
 
 /// The names of a run's services.
@@ -313,12 +332,25 @@ mod tests {
     }
 
     #[test]
+    fn steps_round_trip_through_their_words_with_only_the_runs_zeta() {
+        let step = Step { s: 3, a: 1, s2: 270, cost: -0.25 };
+        let zeta = [1.5f32, f32::MIN_POSITIVE, -0.0];
+        let mut words = vec![0u32; step_words(zeta.len())];
+        assert_eq!(words.len(), 7);
+        write_step(&mut words, step, &zeta);
+        let (back, z) = read_step(&words);
+        assert_eq!(back, step);
+        let z: Vec<f32> = z.collect();
+        assert_eq!(z.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), zeta.map(f32::to_bits));
+    }
+
+    #[test]
     fn type_names_are_stable_and_versioned() {
         // SAFETY: type_name only returns a static string.
         unsafe {
             assert_eq!(RunInfo::type_name(), "envpg.RunInfo");
             assert_eq!(Hello::type_name(), "envpg.Hello");
-            assert_eq!(StepRecord::type_name(), "envpg.v2.StepRecord");
+            assert_eq!(EpisodeHeader::type_name(), "envpg.v2.EpisodeHeader");
         }
     }
 }

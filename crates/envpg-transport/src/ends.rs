@@ -3,8 +3,8 @@
 use std::time::{Duration, Instant};
 
 use envpg_protocol::{
-    EpisodeHeader, EpisodeId, Hello, MAGIC, PROTOCOL_VERSION, RunInfo, ServiceNames, StepRecord, TaskHeader,
-    WeightsHeader, run_id_bytes,
+    EpisodeHeader, EpisodeId, Hello, MAGIC, PROTOCOL_VERSION, RunInfo, ServiceNames, TaskHeader, WeightsHeader,
+    run_id_bytes, step_words,
 };
 use iceoryx2::node::Node;
 use iceoryx2::port::listener::Listener;
@@ -77,7 +77,7 @@ pub struct LearnerEnd<S: Service> {
     hello: Subscriber<S, Hello, ()>,
     weights: Publisher<S, [f32], WeightsHeader>,
     tasks: Publisher<S, [EpisodeId], TaskHeader>,
-    episodes: Subscriber<S, [StepRecord], EpisodeHeader>,
+    episodes: Subscriber<S, [u32], EpisodeHeader>,
     wake_workers: Notifier<S>,
     wakeup: Listener<S>,
 }
@@ -127,12 +127,17 @@ impl<S: Service> LearnerEnd<S> {
             .max_publishers(1)
             .max_subscribers(ports)
             .max_nodes(ports + 1)
+            // The publisher's segment holds ports × (buffer + borrowed) + history + loaned
+            // copies of θ, the largest message of a run: a worker only ever wants the newest
+            // weights, reads them in place one at a time and copies them out at once.
             .history_size(1)
-            .subscriber_max_buffer_size(2)
+            .subscriber_max_buffer_size(1)
+            .subscriber_max_borrowed_samples(1)
             .create()
             .map_err(|e| svc_err(&n, e))?
             .publisher_builder()
             .initial_max_slice_len(sizes.n_params.max(1))
+            .max_loaned_samples(1)
             .create()
             .map_err(|e| port_err("publisher", &n, e))?;
 
@@ -155,16 +160,18 @@ impl<S: Service> LearnerEnd<S> {
             .map_err(|e| port_err("publisher", &n, e))?;
 
         let n = names.episodes();
-        // Room for several iterations' episodes: the queue never overflows in normal operation,
-        // since workers only produce what the current iteration asked for.
-        let queue = 4 * sizes.episodes_per_iteration + 64;
+        // Workers only produce what the current iteration asked of them, so at most two copies
+        // of each episode (its worker's and, after a reassignment, another's) are ever queued.
+        // Every worker's segment holds subscribers × (queue + borrowed) + loaned episodes.
+        let queue = 2 * sizes.episodes_per_iteration + 16;
         let episodes = node
             .service_builder(&service_name(&n)?)
-            .publish_subscribe::<[StepRecord]>()
+            .publish_subscribe::<[u32]>()
             .user_header::<EpisodeHeader>()
             .max_publishers(ports)
             .max_subscribers(2)
             .max_nodes(ports + 1)
+            .subscriber_max_borrowed_samples(1)
             .subscriber_max_buffer_size(queue)
             .create()
             .map_err(|e| svc_err(&n, e))?
@@ -323,7 +330,7 @@ impl<S: Service> LearnerEnd<S> {
     }
 
     /// Calls `f` with every pending episode message.
-    pub fn receive_episodes(&self, mut f: impl FnMut(&EpisodeHeader, &[StepRecord])) -> Result<usize, TransportError> {
+    pub fn receive_episodes(&self, mut f: impl FnMut(&EpisodeHeader, &[u32])) -> Result<usize, TransportError> {
         let mut n = 0;
         loop {
             match self.episodes.receive() {
@@ -357,7 +364,7 @@ pub struct WorkerEnd<S: Service> {
     hello: Publisher<S, Hello, ()>,
     weights: Subscriber<S, [f32], WeightsHeader>,
     tasks: Subscriber<S, [EpisodeId], TaskHeader>,
-    episodes: Publisher<S, [StepRecord], EpisodeHeader>,
+    episodes: Publisher<S, [u32], EpisodeHeader>,
     wake_learner: Notifier<S>,
     wakeup: Listener<S>,
 }
@@ -497,12 +504,13 @@ impl<S: Service> WorkerEnd<S> {
         let n = names.episodes();
         let episodes = node
             .service_builder(&service_name(&n)?)
-            .publish_subscribe::<[StepRecord]>()
+            .publish_subscribe::<[u32]>()
             .user_header::<EpisodeHeader>()
             .open()
             .map_err(|e| ps_err(&n, e))?
             .publisher_builder()
-            .initial_max_slice_len((info.episode_cap as usize).max(1))
+            .initial_max_slice_len((info.episode_cap as usize * step_words(info.zeta_dim as usize)).max(1))
+            .max_loaned_samples(1)
             .create()
             .map_err(|e| port_err("publisher", &n, e))?;
         let n = names.learner_wakeup();
@@ -615,17 +623,19 @@ impl<S: Service> WorkerEnd<S> {
     /// Calls `f` with the newest weights message, read in place from shared memory, if one
     /// arrived since the last call; returns whether it did.
     pub fn with_latest_weights(&self, f: impl FnOnce(&WeightsHeader, &[f32])) -> Result<bool, TransportError> {
-        let mut latest = None;
+        let err = |e: &dyn std::fmt::Debug| TransportError::Receive {
+            service: self.names.weights(),
+            reason: format!("{e:?}"),
+        };
+        // One sample borrowed at a time (the service allows no more): a newer one that arrived
+        // meanwhile replaces it.
         loop {
-            match self.weights.receive() {
-                Ok(Some(s)) => latest = Some(s),
-                Ok(None) => break,
-                Err(e) => {
-                    return Err(TransportError::Receive { service: self.names.weights(), reason: format!("{e:?}") });
-                }
+            let Some(sample) = self.weights.receive().map_err(|e| err(&e))? else { return Ok(false) };
+            if !self.weights.has_samples().map_err(|e| err(&e))? {
+                f(sample.user_header(), sample.payload());
+                return Ok(true);
             }
         }
-        Ok(latest.map(|s| f(s.user_header(), s.payload())).is_some())
     }
 
     /// Every task message that arrived since the last call (for any worker; filter by id).
@@ -642,27 +652,26 @@ impl<S: Service> WorkerEnd<S> {
         }
     }
 
-    /// Publishes one episode's records under `header` (no wake-up; call
-    /// [`WorkerEnd::notify_learner`] once per batch).
-    pub fn publish_episode(
-        &self,
-        header: EpisodeHeader,
-        records: impl ExactSizeIterator<Item = StepRecord>,
-    ) -> Result<(), TransportError> {
+    /// Publishes one episode under `header`: `header.len` steps of
+    /// [`step_words`]`(header.zeta_dim)` words each ([`envpg_protocol::write_step`]), at most
+    /// the run's episode cap (no wake-up; call [`WorkerEnd::notify_learner`] once per batch).
+    pub fn publish_episode(&self, header: EpisodeHeader, words: &[u32]) -> Result<(), TransportError> {
         let service = self.names.episodes();
         let send_err =
             |e: &dyn std::fmt::Debug| TransportError::Send { service: service.clone(), reason: format!("{e:?}") };
-        if records.len() > self.info.get().episode_cap as usize {
+        // Only what fits the run's messages is checked here; whether the words agree with the
+        // header is the learner's to check, as for any peer.
+        let info = self.info.get();
+        let max = info.episode_cap as usize * step_words(info.zeta_dim as usize);
+        if words.len() > max {
             return Err(TransportError::Malformed {
                 service,
-                reason: format!("episode of {} steps exceeds the cap", records.len()),
+                reason: format!("an episode of {} words exceeds the run's {max} (its episode cap)", words.len()),
             });
         }
-        let mut sample = self.episodes.loan_slice_uninit(records.len()).map_err(|e| send_err(&e))?;
+        let mut sample = self.episodes.loan_slice_uninit(words.len()).map_err(|e| send_err(&e))?;
         *sample.user_header_mut() = header;
-        let mut it = records;
-        let sample = sample.write_from_fn(|_| it.next().expect("exact size"));
-        sample.send().map_err(|e| send_err(&e))?;
+        sample.write_from_slice(words).send().map_err(|e| send_err(&e))?;
         Ok(())
     }
 

@@ -16,7 +16,7 @@
 //!
 //! ```
 //! use std::time::Duration;
-//! use envpg_protocol::{EpisodeHeader, MAX_ZETA, PROTOCOL_VERSION, StepRecord, run_id_bytes};
+//! use envpg_protocol::{EpisodeHeader, PROTOCOL_VERSION, Step, read_step, run_id_bytes, step_words, write_step};
 //! use envpg_transport::{LearnerEnd, LinkSizes, TransportError, WorkerEnd, local};
 //!
 //! let sizes = LinkSizes { max_workers: 1, n_params: 3, episode_cap: 4, episodes_per_iteration: 1 };
@@ -28,15 +28,17 @@
 //!     let end = WorkerEnd::<local::Service>::open("doc-link", 0, PROTOCOL_VERSION, Duration::from_secs(5))?;
 //!     let (w, theta) = loop { if let Some(latest) = end.latest_weights()? { break latest; } };
 //!     assert_eq!((w.k, w.zeta[0], theta), (0, 0.5, vec![0.1, 0.2, 0.3]));
-//!     let header = EpisodeHeader { protocol: PROTOCOL_VERSION, run_id: run_id_bytes("doc-link"), k: w.k, len: 1, ..Default::default() };
-//!     end.publish_episode(header, std::iter::once(StepRecord { s: 0, a: 1, s2: 2, cost: 2.5, zeta: [0.5; MAX_ZETA] }))?;
+//!     let header = EpisodeHeader { protocol: PROTOCOL_VERSION, run_id: run_id_bytes("doc-link"), k: w.k, len: 1, zeta_dim: 1, ..Default::default() };
+//!     let mut words = [0u32; step_words(1)]; // s, a, s', c and ζ_pert: 5 words
+//!     write_step(&mut words, Step { s: 0, a: 1, s2: 2, cost: 2.5 }, &[0.5]);
+//!     end.publish_episode(header, &words)?;
 //!     while !end.run_finished()? {} // a publisher's samples go with it: stay until the run is over
 //!     Ok(())
 //! });
 //! let mut got = Vec::new();
 //! while got.is_empty() && !worker.is_finished() {
 //!     learner.refresh(); // hands late joiners the run info and the latest weights
-//!     learner.receive_episodes(|h, recs| got.push((h.k, h.len, recs[0].cost)))?;
+//!     learner.receive_episodes(|h, words| got.push((h.k, h.len, read_step(words).0.cost)))?;
 //! }
 //! learner.announce(1, true)?;
 //! worker.join().unwrap()?;

@@ -3,7 +3,9 @@
 
 use std::time::{Duration, Instant};
 
-use envpg_protocol::{EpisodeHeader, EpisodeId, MAX_ZETA, PROTOCOL_VERSION, StepRecord, hello_kind, run_id_bytes};
+use envpg_protocol::{
+    EpisodeHeader, EpisodeId, PROTOCOL_VERSION, Step, hello_kind, run_id_bytes, step_words, write_step,
+};
 use envpg_transport::{LearnerEnd, LinkSizes, TransportError, WorkerEnd, ipc, local};
 use iceoryx2::prelude::*;
 
@@ -13,8 +15,13 @@ fn sizes() -> LinkSizes {
 
 const IDS: [EpisodeId; 2] = [EpisodeId { kind: 0, index: 0 }, EpisodeId { kind: 1, index: 2 }];
 
-fn record() -> StepRecord {
-    StepRecord { s: 1, a: 2, s2: 3, cost: 4.5, zeta: [0.25; MAX_ZETA] }
+/// Two steps (1, 2, 3, 4.5) at ζ_pert = (0.25, 0.25), as an episode message's words.
+fn two_steps() -> Vec<u32> {
+    let mut words = vec![0u32; 2 * step_words(2)];
+    for rec in words.chunks_exact_mut(step_words(2)) {
+        write_step(rec, Step { s: 1, a: 2, s2: 3, cost: 4.5 }, &[0.25, 0.25]);
+    }
+    words
 }
 
 /// Polls `f` until it returns `Some`, failing after a watchdog timeout.
@@ -51,7 +58,10 @@ fn worker_side<S: Service>(run_id: &str) {
         zeta_dim: 2,
         _pad: 0,
     };
-    worker.publish_episode(header, [record(), record()].into_iter()).unwrap();
+    worker.publish_episode(header, &two_steps()).unwrap();
+    // Nothing larger than the run's episodes fits its messages.
+    let too_long = vec![0u32; 5 * step_words(2)];
+    assert!(matches!(worker.publish_episode(header, &too_long), Err(TransportError::Malformed { .. })));
     worker.notify_learner().unwrap();
     until("end of run", || worker.run_finished().unwrap().then_some(()));
 }
@@ -76,7 +86,7 @@ fn round_trip<S: Service>(run_id: &str) {
             (!got.is_empty()).then_some(())
         });
         assert_eq!(got[0].0.episode, IDS[1]);
-        assert_eq!(got[0].1, vec![record(), record()]);
+        assert_eq!(got[0].1, two_steps());
         learner.announce(2, true).unwrap();
         w.join().unwrap();
     });

@@ -56,7 +56,7 @@ use envpg_ac::table::PolicyTable;
 use envpg_ac::trainer::RunSpec;
 use envpg_core::{EnvRng, LoadedEnv, ParamMdp, Streams, ZetaSpace};
 use envpg_nn::{Mlp, MlpSpec};
-use envpg_protocol::{EpisodeHeader, EpisodeId, MAX_ZETA, StepRecord, hello_kind, run_id_bytes};
+use envpg_protocol::{EpisodeHeader, EpisodeId, MAX_ZETA, Step, hello_kind, run_id_bytes};
 use envpg_transport::{TransportError, WorkerEnd};
 use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
@@ -173,13 +173,16 @@ impl ParamMdp for CostlyEnv {
     }
 }
 
-/// Converts an episode to protocol records.
-pub fn records(ep: &Episode, d: usize) -> impl ExactSizeIterator<Item = StepRecord> + '_ {
-    (0..ep.len()).map(move |t| {
-        let mut zeta = [0.0f32; MAX_ZETA];
-        zeta[..d].copy_from_slice(&ep.zeta[t * d..(t + 1) * d]);
-        StepRecord { s: ep.s[t], a: ep.a[t], s2: ep.s2[t], cost: ep.cost[t], zeta }
-    })
+/// Writes an episode (ζ of dimension `d`) into `words` as the payload of an episode message:
+/// [`envpg_protocol::step_words`]`(d)` words a step.
+pub fn records(ep: &Episode, d: usize, words: &mut Vec<u32>) {
+    let w = envpg_protocol::step_words(d);
+    words.clear();
+    words.resize(ep.len() * w, 0);
+    for (t, out) in words.chunks_exact_mut(w).enumerate() {
+        let step = Step { s: ep.s[t], a: ep.a[t], s2: ep.s2[t], cost: ep.cost[t] };
+        envpg_protocol::write_step(out, step, &ep.zeta[t * d..(t + 1) * d]);
+    }
 }
 
 /// The kind of an episode id.
@@ -259,6 +262,7 @@ where
     let mut weights: Option<envpg_protocol::WeightsHeader> = None;
     let mut tasks: BTreeMap<u64, Vec<EpisodeId>> = BTreeMap::new();
     let mut seq = 0u64;
+    let mut words = Vec::new();
     let mut last_beat = Instant::now();
     let run_id = run_id_bytes(&cfg.run_id);
     loop {
@@ -326,7 +330,8 @@ where
                         _pad: 0,
                     };
                     seq += 1;
-                    end.publish_episode(header, records(&ep, d))?;
+                    records(&ep, d, &mut words);
+                    end.publish_episode(header, &words)?;
                     if last_beat.elapsed() >= cfg.heartbeat {
                         end.say(hello_kind::HEARTBEAT, cfg.worker_id, cfg.incarnation)?;
                         last_beat = Instant::now();
