@@ -1,5 +1,6 @@
 //! `envpg bench`: side-by-side timings whose ratios matter.
 
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
@@ -7,7 +8,7 @@ use clap::Subcommand;
 use envpg_core::{Purpose, Streams};
 use envpg_model::{Form, GradientKind, Objective, Snapshot, solve_soft};
 
-use crate::args::{InstanceArgs, Tools, parse_zeta, positive};
+use crate::args::{InputError, InstanceArgs, Tools, check_dir_writable, parse_zeta, positive};
 
 /// Benchmarks.
 #[derive(Debug, Subcommand)]
@@ -30,11 +31,24 @@ pub enum BenchCmd {
         #[arg(long, default_value_t = 2.0)]
         seconds: f64,
     },
+    /// Training throughput against the number of workers: the throughput model of one or more
+    /// `envpg-launch --bench --bench-out FILE` reports (lines: a core per process; crosses: the
+    /// measuring machine's cores) and what each measured (points), for lag 0 and 1. Writes
+    /// DIR/throughput-model.svg and .png.
+    Plot {
+        /// `--bench-out` reports of `envpg-launch --bench`.
+        #[arg(required = true)]
+        reports: Vec<PathBuf>,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
 }
 
 /// Runs a benchmark.
 pub fn run(cmd: BenchCmd, tools: &Tools) -> Result<()> {
     match cmd {
+        BenchCmd::Plot { reports, out } => plot(&reports, &out),
         BenchCmd::Gradient { instance, kappas, alpha, zeta, seconds } => {
             positive("--alpha", alpha)?;
             positive("--seconds", seconds)?;
@@ -89,6 +103,49 @@ pub fn run(cmd: BenchCmd, tools: &Tools) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `envpg bench plot`: the curves of every report, checked before anything is drawn.
+fn plot(reports: &[PathBuf], out: &Path) -> Result<()> {
+    check_dir_writable(out)?;
+    let mut curves = Vec::new();
+    for path in reports {
+        let bad = |why: &str| {
+            InputError(format!("{}: {why} (expected an `envpg-launch --bench --bench-out` report)", path.display()))
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| InputError(format!("{}: {e}", path.display())))?;
+        let report: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(&e.to_string()))?;
+        let cost = report["emulator_cost_us"].as_u64().ok_or_else(|| bad("no emulator_cost_us"))?;
+        let predictions =
+            report["predictions"].as_array().filter(|p| !p.is_empty()).ok_or_else(|| bad("no model predictions"))?;
+        let field =
+            |p: &serde_json::Value, k: &str| p[k].as_f64().ok_or_else(|| bad(&format!("a prediction without {k}")));
+        for lag in [0.0, 1.0] {
+            let (mut predicted, mut measured, mut predicted_there) = (Vec::new(), Vec::new(), Vec::new());
+            for p in predictions {
+                if field(p, "lag")? != lag {
+                    continue;
+                }
+                let (w, cores) = (field(p, "workers")?, field(p, "cores")?);
+                if cores == w + 1.0 {
+                    predicted.push((w as usize, field(p, "per_second")?));
+                }
+                if let Some(m) = p["measured"].as_f64() {
+                    measured.push((w as usize, m));
+                    predicted_there.push((w as usize, field(p, "per_second")?));
+                }
+            }
+            let step = if cost == 0 { "the UAV emulator".to_string() } else { format!("+{cost} µs a step") };
+            let label = format!("{step}, lag {lag}");
+            curves.push(envpg_report::figures::ThroughputCurve { label, predicted, measured, predicted_there });
+        }
+    }
+    let title =
+        "Training throughput: model (lines: a core per process; ×: the measuring machine's cores), measured (●)";
+    for p in envpg_report::figures::throughput(title, &curves, out, "throughput-model")? {
+        println!("wrote {}", p.display());
+    }
+    Ok(())
 }
 
 /// Median wall time of `f` over repeated calls within `budget`.

@@ -187,3 +187,34 @@ fn envs_lists_every_environment_with_its_parameters() {
         assert!(text.contains(needle), "{needle}: {text}");
     }
 }
+
+#[test]
+fn bench_plot_draws_a_reports_model_and_refuses_what_is_not_a_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("bench.json");
+    let predictions: Vec<serde_json::Value> = [(1, 2, 12e3, Some(12e3)), (2, 2, 16e3, Some(15e3)), (2, 3, 18e3, None)]
+        .iter()
+        .flat_map(|&(workers, cores, per_second, measured)| {
+            [0, 1].map(|lag| serde_json::json!({ "workers": workers, "lag": lag, "cores": cores, "per_second": per_second, "measured": measured }))
+        })
+        .collect();
+    let json = serde_json::json!({ "emulator_cost_us": 50, "predictions": predictions });
+    std::fs::write(&report, json.to_string()).unwrap();
+    let out = dir.path().join("figs");
+    let o = envpg(&["bench", "plot", report.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for ext in ["svg", "png"] {
+        assert!(out.join(format!("throughput-model.{ext}")).is_file(), "{}", stdout(&o));
+    }
+    let svg = std::fs::read_to_string(out.join("throughput-model.svg")).unwrap();
+    assert!(svg.contains("+50 µs a step, lag 1"), "the legend names each curve");
+
+    // A result file, and a report without the model, are input errors naming the file.
+    let not_a_report = dir.path().join("other.json");
+    std::fs::write(&not_a_report, r#"{"emulator_cost_us": 0, "predictions": []}"#).unwrap();
+    for bad in [not_a_report.to_str().unwrap(), "no/such/report.json"] {
+        let o = envpg(&["bench", "plot", bad, "--out", out.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains(bad), "{}", stderr(&o));
+    }
+}

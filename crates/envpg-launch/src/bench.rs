@@ -10,7 +10,9 @@
 //! then whole training runs (`train`: the learner updates, the polish is skipped) with 1, 2, …
 //! worker processes, with policy lag 0 and 1 side by side, each with the learner's share of the
 //! run (its seconds in `Learner::update` over the run's); and last the latency of broadcasting
-//! the actor's weights to a subscriber blocked in a WaitSet.
+//! the actor's weights to a subscriber blocked in a WaitSet. The one-worker measurements fit a
+//! [`Model`] of training throughput, whose predictions are printed beside what was measured and
+//! for up to 64 workers.
 
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -28,6 +30,7 @@ use iceoryx2::prelude::*;
 use serde::Serialize;
 
 use crate::run_dir::{RunFile, new_run_id};
+use crate::throughput_model::Model;
 
 /// One throughput measurement.
 #[derive(Debug, Serialize)]
@@ -38,6 +41,9 @@ pub struct Throughput {
     pub lag: Option<usize>,
     /// Of a `train` measurement: the learner's seconds in `Learner::update` over the run's.
     pub learner_share: Option<f64>,
+    /// Of a `train` measurement: the cores the update keeps busy when it runs alone (its
+    /// process's CPU seconds over its wall seconds).
+    pub update_cores: Option<f64>,
     /// Worker threads or processes.
     pub workers: usize,
     /// Transitions moved.
@@ -65,6 +71,40 @@ pub struct Report {
     pub broadcast_floats: usize,
     /// Broadcast latency percentiles (µs): p50, p90, p99.
     pub broadcast_latency_us: [f64; 3],
+    /// The throughput model fitted to the one-worker measurements (raw, collect-only, lag-0
+    /// training), if they were taken.
+    pub model: Option<Model>,
+    /// Its predictions: for the measured worker counts on this machine's cores (with the
+    /// gathering time their collect-only runs measured), and for 1–64 workers with a core for
+    /// every process (gathering split evenly).
+    pub predictions: Vec<Prediction>,
+}
+
+/// Training throughput predicted by the [`Model`].
+#[derive(Debug, Serialize)]
+pub struct Prediction {
+    /// Worker processes.
+    pub workers: usize,
+    /// Policy lag.
+    pub lag: usize,
+    /// Cores.
+    pub cores: usize,
+    /// Predicted transitions/s.
+    pub per_second: f64,
+    /// Measured transitions/s, where this run measured the same (workers, lag, cores).
+    pub measured: Option<f64>,
+}
+
+/// Fits the model to a report's one-worker rows.
+fn fit(throughput: &[Throughput], iterations: usize) -> Option<Model> {
+    let find = |mode: &str, workers: usize, lag: Option<usize>| {
+        throughput.iter().find(|t| t.mode == mode && t.workers == workers && t.lag == lag)
+    };
+    let (raw, collect, train) = (find("raw", 0, None)?, find("ipc", 1, None)?, find("train", 1, Some(0))?);
+    let n = iterations.max(1) as f64;
+    let update = train.learner_share? * train.seconds / n;
+    let per_iteration = train.transitions as f64 / n;
+    Some(Model::fit(raw.per_second, collect.per_second, train.per_second, per_iteration, update, train.update_cores?))
 }
 
 fn learner_cfg(run_id: &str, env: &LoadedEnv, spec: &RunSpec, workers: usize, collect_only: bool) -> LearnerConfig {
@@ -99,6 +139,7 @@ fn raw(loaded: &LoadedEnv, spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
         mode: "raw".into(),
         lag: None,
         learner_share: None,
+        update_cores: None,
         workers: 0,
         transitions,
         seconds,
@@ -120,6 +161,7 @@ fn in_process(env: &LoadedEnv, spec: &RunSpec, cost_us: u64) -> Result<Throughpu
         mode: "in-process".into(),
         lag: None,
         learner_share: None,
+        update_cores: None,
         workers: 1,
         transitions: stats.transitions,
         seconds,
@@ -194,6 +236,9 @@ fn ipc_workers(
         mode: if train.is_some() { "train" } else { "ipc" }.into(),
         lag: train,
         learner_share: train.map(|_| stats.update_seconds / seconds),
+        update_cores: train
+            .filter(|_| stats.update_alone_seconds > 0.0)
+            .map(|_| stats.update_cpu_seconds / stats.update_alone_seconds),
         workers,
         transitions: stats.transitions,
         seconds,
@@ -278,7 +323,7 @@ pub fn run(
         }
         rounds.push(round);
     }
-    let throughput = (0..rounds[0].len())
+    let throughput: Vec<Throughput> = (0..rounds[0].len())
         .map(|i| {
             let mut all: Vec<&Throughput> = rounds.iter().map(|r| &r[i]).collect();
             all.sort_by(|a, b| a.per_second.total_cmp(&b.per_second));
@@ -287,6 +332,7 @@ pub fn run(
                 mode: m.mode.clone(),
                 lag: m.lag,
                 learner_share: m.learner_share,
+                update_cores: m.update_cores,
                 workers: m.workers,
                 transitions: m.transitions,
                 seconds: m.seconds,
@@ -295,6 +341,26 @@ pub fn run(
         })
         .collect();
     let n = spec.start_on(env)?.1.actor().n_params();
+    let model = fit(&throughput, spec.config.iterations);
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let mut predictions = Vec::new();
+    if let Some(m) = &model {
+        let here = worker_counts.iter().map(|&w| (w, cores, true));
+        let counts = here.chain([1, 2, 4, 8, 16, 32, 64].map(|w| (w, w + 1, false)));
+        for (workers, cores, measured_here) in counts {
+            for lag in [0, 1] {
+                let row = |mode: &str, lag: Option<usize>| {
+                    throughput.iter().find(|t| measured_here && t.mode == mode && t.workers == workers && t.lag == lag)
+                };
+                let measured = row("train", Some(lag)).map(|t| t.per_second);
+                // Where this machine gathered with these workers, that time (uneven shares
+                // included) replaces the even split.
+                let gather = row("ipc", None).map_or(m.gather_seconds(workers), |t| m.transitions / t.per_second);
+                let per_second = m.transitions / m.iteration_seconds_with(gather, lag, cores);
+                predictions.push(Prediction { workers, lag, cores, per_second, measured });
+            }
+        }
+    }
     Ok(Report {
         emulator_cost_us: cost_us,
         iterations: spec.config.iterations,
@@ -303,6 +369,8 @@ pub fn run(
         throughput,
         broadcast_floats: n,
         broadcast_latency_us: broadcast_latency(n, 300)?,
+        model,
+        predictions,
     })
 }
 
@@ -358,6 +426,22 @@ pub fn print(r: &Report) {
                 pct(find(1, lag).map(|one| t.per_second / (one * t.workers as f64))),
                 pct(find(t.workers, 0).map(|l0| t.per_second / l0)),
             );
+        }
+    }
+    if let Some(m) = &r.model {
+        println!(
+            "model (per iteration: {:.0} transitions, sampling {:.2} µs and transport {:.2} µs a transition, update {:.2} ms on {:.2} cores, rest {:.2} ms)",
+            m.transitions,
+            m.sample * 1e6,
+            m.transport * 1e6,
+            m.update * 1e3,
+            m.update_cores,
+            m.rest * 1e3
+        );
+        println!("{:>7} {:>4} {:>6} {:>18} {:>10}", "workers", "lag", "cores", "predicted tr/s", "measured");
+        for p in &r.predictions {
+            let measured = p.measured.map_or("-".to_string(), |x| format!("{x:.0}"));
+            println!("{:>7} {:>4} {:>6} {:>18.0} {:>10}", p.workers, p.lag, p.cores, p.per_second, measured);
         }
     }
     println!(

@@ -32,6 +32,7 @@ mod program;
 mod roles;
 mod run_dir;
 mod supervise;
+pub mod throughput_model;
 
 use std::path::PathBuf;
 use std::process::ExitCode;

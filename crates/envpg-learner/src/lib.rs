@@ -129,6 +129,12 @@ pub struct LinkStats {
     pub protocol_refusals: u64,
     /// Seconds spent in `Learner::update` (with a policy lag, on the thread beside the link).
     pub update_seconds: f64,
+    /// CPU seconds of the learner process during the updates that ran alone (every update at
+    /// lag 0, a lagged run's last): the update's own threads are all that run then, so over
+    /// `update_alone_seconds` it is the number of cores the update keeps busy.
+    pub update_cpu_seconds: f64,
+    /// Wall seconds of the updates counted in `update_cpu_seconds`.
+    pub update_alone_seconds: f64,
 }
 
 /// Why the learner stopped.
@@ -350,10 +356,22 @@ fn update_now(
     stats: &mut LinkStats,
 ) -> Result<(envpg_ac::Stats, Vec<f64>, envpg_ac::PolicyTable<'static>), LearnerError> {
     let (table, zeta_k) = (learner.policy_table(), learner.zeta().to_vec());
-    let started = Instant::now();
+    let (started, cpu) = (Instant::now(), process_cpu_seconds());
     let st = learner.update(&Batch { k: learner.k(), episodes }).map_err(TrainError::from)?;
-    stats.update_seconds += started.elapsed().as_secs_f64();
+    let seconds = started.elapsed().as_secs_f64();
+    stats.update_seconds += seconds;
+    stats.update_alone_seconds += seconds;
+    stats.update_cpu_seconds += process_cpu_seconds() - cpu;
     Ok((st, zeta_k, table))
+}
+
+/// CPU seconds this process has used, all threads.
+fn process_cpu_seconds() -> f64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: `ts` is a valid, writable timespec; CLOCK_PROCESS_CPUTIME_ID exists on every
+    // platform iceoryx2 runs on.
+    let ok = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) } == 0;
+    if ok { ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9 } else { 0.0 }
 }
 
 /// Announces the end of the run when dropped.

@@ -9,6 +9,8 @@
 //!   with the oracle's J as a horizontal line; one panel per group.
 //! - [`trajectories`]: the design points' paths over training on the map.
 //! - [`sweep`]: final J and the estimator's variance and bias against a swept setting.
+//! - [`throughput`]: training throughput against the number of workers, predicted by the
+//!   model of `envpg-launch --bench` and measured.
 //!
 //! [`plot_results`] is what `envpg plot` calls: every figure that the given results support.
 //! Each figure is drawn once, as `NAME.svg`, and rasterised to `NAME.png` with the same
@@ -17,6 +19,7 @@
 mod curves;
 mod maps;
 mod sweep_fig;
+mod throughput;
 
 use std::error::Error;
 use std::path::{Path, PathBuf};
@@ -28,6 +31,7 @@ use plotters::prelude::*;
 pub use curves::{grad_norm, learning_curves};
 pub use maps::{designs, sketch_of, trajectories};
 pub use sweep_fig::sweep;
+pub use throughput::{ThroughputCurve, throughput};
 
 use crate::ReportError;
 use crate::font;
