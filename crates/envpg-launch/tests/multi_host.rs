@@ -76,9 +76,15 @@ fn problem(dir: &Path, iterations: u32) -> Vec<String> {
 }
 
 fn in_process_result(dir: &Path, iterations: u32) -> envpg_core::ResultFile {
+    in_process_result_with(dir, iterations, &[])
+}
+
+/// [`in_process_result`] with extra settings.
+fn in_process_result_with(dir: &Path, iterations: u32, extra: &[&str]) -> envpg_core::ResultFile {
     let out = dir.join("local.json");
     let mut args = problem(dir, iterations);
     args.extend(["--in-process".into(), "--out".into(), out.display().to_string()]);
+    args.extend(extra.iter().map(|s| s.to_string()));
     let o = wait(
         launcher().args(&args).stderr(Stdio::piped()).spawn().unwrap(),
         Duration::from_secs(120),
@@ -240,6 +246,25 @@ fn remote_workers_across_a_network_boundary_give_the_in_process_result() {
     // Every worker is remote: every episode the learner used came across the bridge.
     let used = r.details.as_ref().unwrap()["link"]["episodes"].as_u64().unwrap();
     assert!(bridge["episodes"].as_u64().unwrap() >= used, "{bridge}");
+}
+
+#[test]
+fn a_lagged_run_across_hosts_gives_the_in_process_result() {
+    // Every worker on the other host, with a policy lag: batch k + 1 crosses the bridge while
+    // the learner updates on batch k, and the result is the in-process one.
+    let dir = tempfile::tempdir().unwrap();
+    let reference = in_process_result_with(dir.path(), 40, &["--lag", "1"]);
+    let hosts = Hosts::new();
+    let (args, out) = learner_args(dir.path(), 40, 0, &hosts, &["--lag", "1"]);
+    let learner = hosts.learner(&args);
+    let remote = hosts.worker_host(2);
+    let lo = wait(learner, Duration::from_secs(180), "learner host");
+    let ro = wait(remote, Duration::from_secs(60), "worker host");
+    assert!(lo.status.success(), "learner host failed:\n{}\nworker host:\n{}", text(&lo.stderr), text(&ro.stderr));
+    let r = envpg_core::ResultFile::load(&out).unwrap();
+    assert_eq!(r.config.as_ref().unwrap()["lag"], 1);
+    same_result(&r, &reference);
+    assert!(r.details.as_ref().unwrap()["bridge"]["episodes"].as_u64().unwrap() > 0);
 }
 
 /// Collects a child's stderr in the background, so a test can react to what it says.
