@@ -326,6 +326,14 @@ impl Learner {
         if st.actor_opt.m.len() != n_a || st.critic_opt.m.len() != n_c {
             return Err("checkpoint optimiser shapes do not match this configuration".into());
         }
+        if let Some(b) = &st.lagged
+            && (b.actor.len() != n_a || b.zeta.len() != self.zeta.len())
+        {
+            return Err("checkpoint behaviour weights do not match this configuration".into());
+        }
+        if st.lagged.is_some() != (self.cfg.lag > 0 && st.k > 0) {
+            return Err("checkpoint policy lag does not match this configuration".into());
+        }
         self.actor.mlp.set_params(&st.actor);
         self.critic.mlp.set_params(&st.critic);
         self.target.mlp.set_params(&st.target);
@@ -343,14 +351,6 @@ impl Learner {
         }
         self.zeta_sum = st.zeta_sum;
         self.zeta_count = st.zeta_count;
-        if let Some(b) = &st.lagged
-            && (b.actor.len() != n_a || b.zeta.len() != self.zeta.len())
-        {
-            return Err("checkpoint behaviour weights do not match this configuration".into());
-        }
-        if st.lagged.is_some() != (self.cfg.lag > 0 && st.k > 0) {
-            return Err("checkpoint policy lag does not match this configuration".into());
-        }
         self.lagged = st.lagged;
         self.zeta = st.zeta;
         self.features.set_center(&self.zeta);

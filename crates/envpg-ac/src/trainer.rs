@@ -350,7 +350,8 @@ pub fn exact_greedy_j<M: ModelMdp + ?Sized>(
 }
 
 /// Trains `learner` serially for `iterations` more iterations on `env` (each: the policy table
-/// at (θ_k, ζ_k), the iteration's episodes, one update), without recording anything.
+/// of [`Learner::behaviour`] — (θ_k, ζ_k), or with a policy lag (θ_{k−1}, ζ_{k−1}) — the
+/// iteration's episodes, one update), without recording anything.
 pub fn advance<E: ParamMdp + ?Sized>(
     env: &E,
     learner: &mut Learner,
