@@ -447,9 +447,14 @@ impl Learner {
         let flat = self.flatten(batch)?;
         let cfg = self.cfg.clone();
         if cfg.lag > 0 {
-            // Batch k + 1 is sampled with the weights this update starts from.
-            self.lagged =
-                Some(Behaviour { actor: self.actor.mlp.params().to_vec(), zeta: self.zeta.clone(), alpha: self.alpha });
+            // Batch k + 1 is sampled with the weights this update starts from (copied into the
+            // previous snapshot's buffers: no allocation per update).
+            let b = self.lagged.get_or_insert_with(|| Behaviour { actor: Vec::new(), zeta: Vec::new(), alpha: 0.0 });
+            b.actor.clear();
+            b.actor.extend_from_slice(self.actor.mlp.params());
+            b.zeta.clear();
+            b.zeta.extend_from_slice(&self.zeta);
+            b.alpha = self.alpha;
         }
         let d = self.zeta.len();
         let alpha = self.alpha;

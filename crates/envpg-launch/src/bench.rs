@@ -33,7 +33,7 @@ use crate::run_dir::{RunFile, new_run_id};
 use crate::throughput_model::Model;
 
 /// One throughput measurement.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct Throughput {
     /// `raw`, `in-process`, `ipc` (collect-only) or `train`.
     pub mode: String,
@@ -52,6 +52,22 @@ pub struct Throughput {
     pub seconds: f64,
     /// Transitions per second.
     pub per_second: f64,
+}
+
+impl Throughput {
+    /// `transitions` moved in `seconds` by `workers` in `mode` (none of a training run's extras).
+    fn measured(mode: &str, workers: usize, transitions: u64, seconds: f64) -> Self {
+        Self {
+            mode: mode.into(),
+            lag: None,
+            learner_share: None,
+            update_cores: None,
+            workers,
+            transitions,
+            seconds,
+            per_second: transitions as f64 / seconds,
+        }
+    }
 }
 
 /// The whole benchmark.
@@ -135,16 +151,7 @@ fn raw(loaded: &LoadedEnv, spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
         }
     }
     let seconds = start.elapsed().as_secs_f64();
-    Ok(Throughput {
-        mode: "raw".into(),
-        lag: None,
-        learner_share: None,
-        update_cores: None,
-        workers: 0,
-        transitions,
-        seconds,
-        per_second: transitions as f64 / seconds,
-    })
+    Ok(Throughput::measured("raw", 0, transitions, seconds))
 }
 
 fn in_process(env: &LoadedEnv, spec: &RunSpec, cost_us: u64) -> Result<Throughput> {
@@ -157,16 +164,7 @@ fn in_process(env: &LoadedEnv, spec: &RunSpec, cost_us: u64) -> Result<Throughpu
         run_learner::<local::Service>(&lcfg, |_| true).map(|(_, s)| s)
     })?;
     let seconds = start.elapsed().as_secs_f64();
-    Ok(Throughput {
-        mode: "in-process".into(),
-        lag: None,
-        learner_share: None,
-        update_cores: None,
-        workers: 1,
-        transitions: stats.transitions,
-        seconds,
-        per_second: stats.transitions as f64 / seconds,
-    })
+    Ok(Throughput::measured("in-process", 1, stats.transitions, seconds))
 }
 
 fn worker_cfg(run_id: &str, env: &LoadedEnv, spec: &RunSpec, id: u32, cost_us: u64) -> WorkerConfig {
@@ -232,18 +230,15 @@ fn ipc_workers(
         let _ = c.wait();
     }
     let stats = res?.1;
-    Ok(Throughput {
-        mode: if train.is_some() { "train" } else { "ipc" }.into(),
-        lag: train,
-        learner_share: train.map(|_| stats.update_seconds / seconds),
-        update_cores: train
-            .filter(|_| stats.update_alone_seconds > 0.0)
-            .map(|_| stats.update_cpu_seconds / stats.update_alone_seconds),
-        workers,
-        transitions: stats.transitions,
-        seconds,
-        per_second: stats.transitions as f64 / seconds,
-    })
+    let mut t =
+        Throughput::measured(if train.is_some() { "train" } else { "ipc" }, workers, stats.transitions, seconds);
+    if train.is_some() {
+        t.lag = train;
+        t.learner_share = Some(stats.update_seconds / seconds);
+        t.update_cores =
+            (stats.update_alone_seconds > 0.0).then(|| stats.update_cpu_seconds / stats.update_alone_seconds);
+    }
+    Ok(t)
 }
 
 /// Latency of one weights broadcast of `n` floats from publish to a WaitSet wake-up and
@@ -327,17 +322,7 @@ pub fn run(
         .map(|i| {
             let mut all: Vec<&Throughput> = rounds.iter().map(|r| &r[i]).collect();
             all.sort_by(|a, b| a.per_second.total_cmp(&b.per_second));
-            let m = all[all.len() / 2];
-            Throughput {
-                mode: m.mode.clone(),
-                lag: m.lag,
-                learner_share: m.learner_share,
-                update_cores: m.update_cores,
-                workers: m.workers,
-                transitions: m.transitions,
-                seconds: m.seconds,
-                per_second: m.per_second,
-            }
+            all[all.len() / 2].clone()
         })
         .collect();
     let n = spec.start_on(env)?.1.actor().n_params();
