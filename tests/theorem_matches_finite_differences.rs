@@ -216,14 +216,16 @@ fn check_value_iteration<M: ModelMdp + ?Sized>(model: &M, zeta: &[f64], what: &s
 
 #[test]
 fn horizon_gradient_matches_finite_differences() {
-    let net = small_uav(0.85);
     let zeta = [0.5, 0.4, 1.2, 0.9, 2.1, 1.8];
-    for alpha in [0.2, 5.0, 50.0] {
-        let obj = Objective::new(&net, alpha, Form::Horizon(6));
-        let exact = obj.value_grad(&zeta, None).unwrap().grad;
-        let fd = fd_gradient(&zeta, 1e-5, |z| obj.value(z, None).map(|r| r.0)).unwrap();
-        let e = rel_err(&exact, &fd);
-        assert!(e <= 1e-6, "alpha {alpha}: relative error {e}");
+    for kappa in [0.85, 1.0] {
+        let net = small_uav(kappa);
+        for alpha in [0.2, 5.0, 50.0] {
+            let obj = Objective::new(&net, alpha, Form::Horizon(6));
+            let exact = obj.value_grad(&zeta, None).unwrap().grad;
+            let fd = fd_gradient(&zeta, 1e-5, |z| obj.value(z, None).map(|r| r.0)).unwrap();
+            let e = rel_err(&exact, &fd);
+            assert!(e <= 1e-6, "kappa {kappa}, alpha {alpha}: relative error {e}");
+        }
     }
 }
 

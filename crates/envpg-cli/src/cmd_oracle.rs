@@ -56,6 +56,10 @@ pub struct OracleArgs {
     /// L-BFGS iterations per temperature level.
     #[arg(long)]
     iters_per_level: Option<usize>,
+    /// Symmetry-breaking noise added to ζ at each finite-horizon level: its standard deviation
+    /// in units of the instance's length scale [default: 0.001].
+    #[arg(long)]
+    perturb: Option<f64>,
     /// Threads for restarts [default: available cores].
     #[arg(long)]
     threads: Option<usize>,
@@ -115,6 +119,9 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
     }
     if let Some(n) = a.iters_per_level {
         cfg.iters_per_level = n;
+    }
+    if let Some(x) = a.perturb {
+        cfg.perturb = x;
     }
     if let Some(t) = a.threads {
         cfg.threads = t.max(1);

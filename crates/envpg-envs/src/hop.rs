@@ -203,6 +203,17 @@ impl HopNetwork {
         ends: &mut Vec<usize>,
     ) {
         let deviates = self.deviates(s);
+        if !deviates {
+            // Every hop reaches its target: no off-target kernel, so no geometry scratch.
+            let xs = self.position(s, zeta);
+            for &t in self.targets(s) {
+                next.push(t);
+                prob.push(1.0);
+                cost.push(dist2(self.position(t, zeta), xs));
+                ends.push(next.len());
+            }
+            return;
+        }
         with_geometry(self, s, zeta, |g| {
             for k in 0..g.len {
                 next.push(g.target[k]);

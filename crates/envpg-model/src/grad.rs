@@ -112,9 +112,13 @@ pub fn horizon_gradient<M: ModelMdp + ?Sized>(
     for (h, pi) in sol.pi.iter().enumerate() {
         let vnext = &sol.v[h + 1];
         rho_next.iter_mut().for_each(|r| *r = 0.0);
+        let mut at = 0;
         for &s in &sol.reach[h] {
-            for sa in snap.sas(s) {
-                let wh = rho[s] * pi[sa];
+            let pairs = snap.sas(s);
+            let pi_s = &pi[at..at + pairs.len()];
+            at += pairs.len();
+            for (sa, &p) in pairs.zip(pi_s) {
+                let wh = rho[s] * p;
                 if wh == 0.0 {
                     continue;
                 }

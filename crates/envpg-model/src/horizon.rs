@@ -11,7 +11,9 @@
 
 use crate::error::ModelError;
 use crate::snapshot::Snapshot;
-use crate::soft::{SoftSolution, backup, solve_soft};
+use std::sync::Arc;
+
+use crate::soft::{SoftSolution, backup, solve_soft_within};
 
 /// The solution of the finite-horizon problem at one temperature.
 #[derive(Debug, Clone)]
@@ -19,16 +21,64 @@ pub struct HorizonSolution {
     /// Temperature.
     pub alpha: f64,
     /// States reachable at each stage `h = 0..H` (non-terminal).
-    pub reach: Vec<Vec<usize>>,
+    pub reach: Arc<Vec<Vec<usize>>>,
     /// Stage values `V_h`, `h = 0..=H` (`V_H` is the hard tail); entries of unreachable
     /// states are 0 for `h < H`.
     pub v: Vec<Vec<f64>>,
-    /// Stage policies `π_h` per pair, `h = 0..H` (zero on unreachable states).
+    /// Stage policies `π_h`, `h = 0..H`, over the pairs of the states reachable at stage `h`
+    /// only: `pi[h]` lists the pairs of `reach[h][0]`, then of `reach[h][1]`, and so on. Dense
+    /// per-pair tables would cost `H` × pairs per solve, almost all of it zeros when most
+    /// states (the users) are reachable at stage 0 only.
     pub pi: Vec<Vec<f64>>,
-    /// The hard SSP solution used after the horizon.
+    /// The hard SSP solution used after the horizon, solved only where the process can be
+    /// after `H` stages (the states reachable from stage `H` on): elsewhere `v` is 0, `pi` the
+    /// warm start (or uniform) and `j` NaN.
     pub tail: SoftSolution,
     /// `Σ μ V_0`.
     pub j: f64,
+}
+
+/// What the horizon form needs of a transition structure, whatever ζ: the states reachable at
+/// each stage and the states the hard tail must solve. Cached in the [`Snapshot`].
+#[derive(Debug)]
+pub(crate) struct Stages {
+    h: usize,
+    reach: Arc<Vec<Vec<usize>>>,
+    tail: Vec<bool>,
+}
+
+impl Stages {
+    fn new(snap: &Snapshot, h: usize) -> Self {
+        let reach = reachable(snap, h);
+        // The tail is entered at stage H: the successors of stage H − 1, and everything after.
+        let mut tail = vec![false; snap.n_states];
+        let mut todo: Vec<usize> = Vec::new();
+        let mut enter = |t: usize, todo: &mut Vec<usize>| {
+            if !snap.terminal[t] && !tail[t] {
+                tail[t] = true;
+                todo.push(t);
+            }
+        };
+        let successors =
+            |s: usize| snap.sas(s).flat_map(|sa| snap.outs(sa)).filter(|&o| snap.prob[o] > 0.0).map(|o| snap.next[o]);
+        for &s in reach.last().into_iter().flatten() {
+            for t in successors(s) {
+                enter(t, &mut todo);
+            }
+        }
+        while let Some(s) = todo.pop() {
+            for t in successors(s) {
+                enter(t, &mut todo);
+            }
+        }
+        Self { h, reach: Arc::new(reach), tail }
+    }
+
+    /// The stages of `snap` for horizon `h`, from its cache when computed for the same `h`.
+    fn of(snap: &Snapshot, h: usize) -> Arc<Self> {
+        let cached = snap.stages.get_or_init(|| Arc::new(Self::new(snap, h)));
+        if cached.h == h { Arc::clone(cached) } else { Arc::new(Self::new(snap, h)) }
+    }
 }
 
 /// The non-terminal states reachable at stages `0..h` from μ.
@@ -69,22 +119,72 @@ pub fn solve_horizon(
     h: usize,
     tail_warm: Option<&[f64]>,
 ) -> Result<HorizonSolution, ModelError> {
+    solve_horizon_tail(snap, alpha, h, tail_warm, true)
+}
+
+/// [`solve_horizon`], solving the hard tail only where it is entered (`restrict`) or on every
+/// state (the reference the restriction is tested against).
+fn solve_horizon_tail(
+    snap: &Snapshot,
+    alpha: f64,
+    h: usize,
+    tail_warm: Option<&[f64]>,
+    restrict: bool,
+) -> Result<HorizonSolution, ModelError> {
     if h == 0 {
         return Err(ModelError::Invalid("horizon must be at least 1".into()));
     }
-    let tail = solve_soft(snap, 0.0, tail_warm)?;
-    let reach = reachable(snap, h);
-    let mut v = vec![vec![0.0; snap.n_states]; h + 1];
+    let stages = Stages::of(snap, h);
+    let tail = solve_soft_within(snap, 0.0, tail_warm, restrict.then_some(&stages.tail[..]))?;
+    let reach = Arc::clone(&stages.reach);
+    let mut v: Vec<Vec<f64>> = (0..=h).map(|_| vec![0.0; snap.n_states]).collect();
     v[h].copy_from_slice(&tail.v);
-    let mut pis = vec![vec![0.0; snap.n_pairs()]; h];
+    let mut pis: Vec<Vec<f64>> =
+        reach.iter().map(|states| vec![0.0; states.iter().map(|&s| snap.sas(s).len()).sum()]).collect();
     let mut qbuf = Vec::new();
     for stage in (0..h).rev() {
         let (head, rest) = v.split_at_mut(stage + 1);
         let (cur, next) = (&mut head[stage], &rest[0]);
+        let mut at = 0;
         for &s in &reach[stage] {
-            cur[s] = backup(snap, s, alpha, next, &mut pis[stage], &mut qbuf);
+            let k = snap.sas(s).len();
+            cur[s] = backup(snap, s, alpha, next, &mut pis[stage][at..at + k], &mut qbuf);
+            at += k;
         }
     }
     let j = snap.mu.iter().map(|&(s, p)| p * v[0][s]).sum();
     Ok(HorizonSolution { alpha, reach, v, pi: pis, tail, j })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Solving the tail only where the process can be after H stages changes no bit of the
+    /// values and policies of the stages, nor of the tail where it is entered.
+    #[test]
+    fn a_tail_restricted_to_where_it_is_entered_changes_no_bit() {
+        for kappa in [1.0, 0.85] {
+            let env = envpg_envs::registry().load("uav271", &[("kappa".into(), kappa)]).unwrap();
+            let model = env.model().unwrap();
+            let zeta = model.heuristic_design().unwrap();
+            let snap = Snapshot::build(model, &zeta);
+            let h = model.oracle_hints().horizon;
+            for alpha in [0.05, 2.0, 300.0] {
+                let fast = solve_horizon_tail(&snap, alpha, h, None, true).unwrap();
+                let full = solve_horizon_tail(&snap, alpha, h, None, false).unwrap();
+                assert_eq!(fast.j.to_bits(), full.j.to_bits(), "kappa {kappa}, alpha {alpha}");
+                // Stage values before the tail, and every stage policy.
+                assert!(fast.v[..h] == full.v[..h], "kappa {kappa}, alpha {alpha}: stage values differ");
+                assert!(fast.pi == full.pi, "kappa {kappa}, alpha {alpha}: stage policies differ");
+                let tail = &Stages::of(&snap, h).tail;
+                assert!(tail.iter().any(|&t| t) && tail.iter().any(|&t| !t), "the tail is a proper part");
+                for s in (0..snap.n_states).filter(|&s| tail[s]) {
+                    assert_eq!(fast.v[h][s].to_bits(), full.v[h][s].to_bits());
+                    assert_eq!(fast.tail.v[s].to_bits(), full.tail.v[s].to_bits());
+                    assert_eq!(fast.tail.pi[snap.sas(s)], full.tail.pi[snap.sas(s)]);
+                }
+            }
+        }
+    }
 }

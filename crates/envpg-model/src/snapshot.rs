@@ -5,7 +5,7 @@
 //! every user is its own component and only the M UAVs form a cycle, so an exact evaluation is
 //! one M×M solve plus a pass over the users.
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use envpg_core::ModelMdp;
 
@@ -38,6 +38,9 @@ pub struct Snapshot {
     pub rbar: Vec<f64>,
     /// Strongly connected components in reverse topological order (successors first).
     pub sccs: Arc<Vec<Scc>>,
+    /// The finite-horizon stages of this transition structure, computed on first use and
+    /// shared, like `sccs`, by snapshots built like this one.
+    pub(crate) stages: Arc<OnceLock<Arc<crate::horizon::Stages>>>,
 }
 
 /// One strongly connected component of the transition graph.
@@ -55,16 +58,18 @@ impl Snapshot {
         Self::build_like(mdp, zeta, None)
     }
 
-    /// Expands `mdp` at `zeta`, reusing the component decomposition of `like` when the
-    /// transition structure is unchanged (the usual case between nearby designs).
+    /// Expands `mdp` at `zeta`, reusing the component decomposition of `like` — a snapshot of
+    /// the same model — when the transition structure is unchanged (the usual case between
+    /// nearby designs).
     pub fn build_like<M: ModelMdp + ?Sized>(mdp: &M, zeta: &[f64], like: Option<&Snapshot>) -> Self {
         let n = mdp.n_states();
         let mut snap = Snapshot {
             n_states: n,
             n_actions: mdp.n_actions(),
             gamma: mdp.gamma(),
-            mu: mdp.initial_distribution(),
-            terminal: (0..n).map(|s| mdp.is_terminal(s)).collect(),
+            // μ and the terminal states do not depend on ζ.
+            mu: like.map_or_else(|| mdp.initial_distribution(), |l| l.mu.clone()),
+            terminal: like.map_or_else(|| (0..n).map(|s| mdp.is_terminal(s)).collect(), |l| l.terminal.clone()),
             sa_start: Vec::with_capacity(n + 1),
             sa_action: Vec::with_capacity(like.map_or(0, |l| l.sa_action.len())),
             out_start: Vec::with_capacity(like.map_or(1, |l| l.out_start.len())),
@@ -73,6 +78,7 @@ impl Snapshot {
             cost: Vec::with_capacity(like.map_or(0, |l| l.next.len())),
             rbar: Vec::with_capacity(like.map_or(0, |l| l.sa_action.len())),
             sccs: Arc::new(Vec::new()),
+            stages: Default::default(),
         };
         snap.out_start.push(0);
         let mut ends = Vec::new();
@@ -96,10 +102,13 @@ impl Snapshot {
                 && l.next == snap.next
                 && l.prob.iter().zip(&snap.prob).all(|(a, b)| (*a > 0.0) == (*b > 0.0))
         };
-        snap.sccs = match like {
-            Some(l) if same_support(l) => Arc::clone(&l.sccs),
-            _ => Arc::new(tarjan(&snap)),
-        };
+        match like {
+            Some(l) if same_support(l) => {
+                snap.sccs = Arc::clone(&l.sccs);
+                snap.stages = Arc::clone(&l.stages);
+            }
+            _ => snap.sccs = Arc::new(tarjan(&snap)),
+        }
         snap
     }
 

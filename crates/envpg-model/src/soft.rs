@@ -32,33 +32,38 @@ pub struct SoftSolution {
 }
 
 /// Soft-min backup of state `s` from successor values `v`: returns `V(s)` and writes the Gibbs
-/// policy into `pi`. For α = 0 picks an argmin, preferring the action `pi` already holds.
+/// policy of `s` into `pi_s` (one entry per pair of `s`). For α = 0 picks an argmin, preferring
+/// the action `pi_s` already holds.
 #[inline]
-pub(crate) fn backup(snap: &Snapshot, s: usize, alpha: f64, v: &[f64], pi: &mut [f64], qbuf: &mut Vec<f64>) -> f64 {
+pub(crate) fn backup(snap: &Snapshot, s: usize, alpha: f64, v: &[f64], pi_s: &mut [f64], qbuf: &mut Vec<f64>) -> f64 {
     let r = snap.sas(s);
+    debug_assert_eq!(pi_s.len(), r.len());
     qbuf.clear();
-    qbuf.extend(r.clone().map(|sa| snap.rbar[sa] + snap.gamma * snap.expect(sa, v)));
+    qbuf.extend(r.map(|sa| snap.rbar[sa] + snap.gamma * snap.expect(sa, v)));
     let qmin = qbuf.iter().copied().fold(f64::INFINITY, f64::min);
     if alpha == 0.0 {
-        let current = r.clone().position(|sa| pi[sa] == 1.0);
+        let current = pi_s.iter().position(|&p| p == 1.0);
         let tol = 1e-12 * (1.0 + qmin.abs());
         let pick = match current {
             Some(i) if qbuf[i] <= qmin + tol => i,
             _ => qbuf.iter().position(|&q| q == qmin).expect("non-empty"),
         };
-        for (i, sa) in r.enumerate() {
-            pi[sa] = if i == pick { 1.0 } else { 0.0 };
+        for (i, p) in pi_s.iter_mut().enumerate() {
+            *p = if i == pick { 1.0 } else { 0.0 };
         }
         return qmin;
     }
     let mut z = 0.0;
-    for (i, sa) in r.clone().enumerate() {
-        let e = (-(qbuf[i] - qmin) / alpha).exp();
-        pi[sa] = e;
+    for (p, &q) in pi_s.iter_mut().zip(qbuf.iter()) {
+        let x = -(q - qmin) / alpha;
+        // exp underflows to exactly 0 below −745.2: skip the call (most actions of most states
+        // at low α), same bits.
+        let e = if x < -746.0 { 0.0 } else { x.exp() };
+        *p = e;
         z += e;
     }
-    for sa in r {
-        pi[sa] /= z;
+    for p in pi_s.iter_mut() {
+        *p /= z;
     }
     qmin - alpha * z.ln()
 }
@@ -68,6 +73,18 @@ pub(crate) fn backup(snap: &Snapshot, s: usize, alpha: f64, v: &[f64], pi: &mut 
 /// `warm` is an optional policy (per pair) to start policy iteration from — typically the
 /// solution at a nearby ζ or α; it must be proper for α = 0.
 pub fn solve_soft(snap: &Snapshot, alpha: f64, warm: Option<&[f64]>) -> Result<SoftSolution, ModelError> {
+    solve_soft_within(snap, alpha, warm, None)
+}
+
+/// [`solve_soft`] on the states flagged in `within` only (every state if `None`); `within`
+/// must be closed under successors. Elsewhere `v` is 0, `pi` the warm start (or uniform) and
+/// `j` NaN.
+pub(crate) fn solve_soft_within(
+    snap: &Snapshot,
+    alpha: f64,
+    warm: Option<&[f64]>,
+    within: Option<&[bool]>,
+) -> Result<SoftSolution, ModelError> {
     if !(alpha.is_finite() && alpha >= 0.0) {
         return Err(ModelError::Invalid(format!("alpha must be finite and >= 0, got {alpha}")));
     }
@@ -82,9 +99,13 @@ pub fn solve_soft(snap: &Snapshot, alpha: f64, warm: Option<&[f64]>) -> Result<S
     let max_actions = (0..n).map(|s| snap.sas(s).len()).max().unwrap_or(1).max(2) as f64;
     for c in snap.sccs.iter() {
         let s0 = c.states[0];
+        // A component is wholly inside or outside a successor-closed set.
+        if within.is_some_and(|w| !w[s0]) {
+            continue;
+        }
         if !c.cyclic {
             if !snap.terminal[s0] {
-                v[s0] = backup(snap, s0, alpha, &v, &mut pi, &mut qbuf);
+                v[s0] = backup(snap, s0, alpha, &v, &mut pi[snap.sas(s0)], &mut qbuf);
             }
             continue;
         }
@@ -143,7 +164,7 @@ pub fn solve_soft(snap: &Snapshot, alpha: f64, warm: Option<&[f64]>) -> Result<S
                 }
                 let vmax = c.states.iter().map(|&s| v[s].abs()).fold(0.0, f64::max);
                 for (i, &s) in c.states.iter().enumerate() {
-                    tv[i] = backup(snap, s, alpha, &v, &mut pi, &mut qbuf);
+                    tv[i] = backup(snap, s, alpha, &v, &mut pi[snap.sas(s)], &mut qbuf);
                 }
                 residual = c.states.iter().enumerate().map(|(i, &s)| (tv[i] - v[s]).abs()).fold(0.0, f64::max);
                 let unchanged = c.states.iter().flat_map(|&s| snap.sas(s)).zip(&before).all(|(sa, &p)| pi[sa] == p);
@@ -159,7 +180,10 @@ pub fn solve_soft(snap: &Snapshot, alpha: f64, warm: Option<&[f64]>) -> Result<S
         local.leave(c);
         res?;
     }
-    let j = snap.mu.iter().map(|&(s, p)| p * v[s]).sum();
+    let j = match within {
+        None => snap.mu.iter().map(|&(s, p)| p * v[s]).sum(),
+        Some(_) => f64::NAN,
+    };
     Ok(SoftSolution { alpha, v, pi, j })
 }
 
