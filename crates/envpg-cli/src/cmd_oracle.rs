@@ -30,8 +30,9 @@ pub struct OracleArgs {
     gradient: GradientArg,
     /// Kinds of restart: `anneal` (deterministic annealing from hot; ζ₀ is forgotten), `warm`
     /// (from ζ₀ at --warm-alpha0, SSP form where it exists), `mixed` (one anneal, the rest
-    /// warm), `auto` (anneal when the model is deterministic, mixed otherwise). With --init,
-    /// restart 0 is warm.
+    /// warm), `portfolio` (one anneal at --cooling, then warm restarts and faster anneals at
+    /// cooling², cooling³, cooling⁴ alternate), `auto` (portfolio when the model is
+    /// deterministic, mixed otherwise). With --init, restart 0 is warm.
     #[arg(long, value_enum, default_value = "auto")]
     strategy: StrategyArg,
     /// Starting temperature of anneal restarts [default: 10 × the environment's cost scale].
@@ -74,6 +75,7 @@ enum StrategyArg {
     Anneal,
     Warm,
     Mixed,
+    Portfolio,
 }
 
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
@@ -98,6 +100,7 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
         StrategyArg::Anneal => Strategy::Anneal,
         StrategyArg::Warm => Strategy::Warm,
         StrategyArg::Mixed => Strategy::Mixed,
+        StrategyArg::Portfolio => Strategy::Portfolio,
     };
     if let Some(x) = a.alpha0 {
         cfg.alpha0 = positive("--alpha0", x)?;

@@ -17,11 +17,14 @@
 //! perturbations), and the temperatures and horizon default to the environment's
 //! [`envpg_core::OracleHints`].
 //!
-//! On the UAV network at κ = 1 every anneal restart reaches the same, best known design. With
-//! stochastic transitions (κ < 1, η = 100) there are many basins within a few percent of each
-//! other and the annealing path settles in one of them, so the default (`Strategy::Auto`)
-//! anneals every restart when the model is deterministic at the first ζ₀, and otherwise mixes
-//! one anneal restart with warm restarts from random ζ₀ and keeps the best.
+//! On the bundled UAV instance at κ = 1 every anneal restart reaches the same design, but on
+//! larger ones (2,000 users and more) annealing at one cooling rate follows one branch of its
+//! bifurcations whatever the noise, often into a poor basin; faster schedules and warm starts
+//! land elsewhere. With stochastic transitions (κ < 1, η = 100) there are many basins within a
+//! few percent of each other. So the default (`Strategy::Auto`) runs a *portfolio* when the
+//! model is deterministic at the first ζ₀ — restart 0 anneals at `cooling`, then warm restarts
+//! and faster anneals (`cooling²`, `cooling³`, `cooling⁴`) alternate — and otherwise mixes one
+//! anneal restart with warm restarts from random ζ₀; the best restart is kept.
 
 use std::time::Instant;
 
@@ -40,7 +43,7 @@ use crate::snapshot::Snapshot;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Strategy {
-    /// Anneal restarts when the model is deterministic (at the first ζ₀), mixed otherwise.
+    /// A portfolio when the model is deterministic (at the first ζ₀), mixed otherwise.
     Auto,
     /// Every restart anneals from hot.
     Anneal,
@@ -48,6 +51,9 @@ pub enum Strategy {
     Warm,
     /// One anneal restart, the others warm.
     Mixed,
+    /// The first restart anneals at `cooling`; then warm and faster anneal restarts alternate,
+    /// the faster ones cooling by `cooling²`, `cooling³`, `cooling⁴` per level in turn.
+    Portfolio,
 }
 
 /// The kind of one restart.
@@ -160,22 +166,45 @@ impl OracleConfig {
     }
 
     /// The kind of restart `r`: `init` (if any) is restart 0 and starts warm; with a mixed
-    /// strategy the first other restart anneals; `Auto` anneals every restart of a
-    /// `deterministic` model.
+    /// strategy the first other restart anneals; `Auto` is a portfolio for a `deterministic`
+    /// model and mixed otherwise.
     pub fn restart_kind(&self, r: usize, deterministic: bool) -> RestartKind {
         let first_free = usize::from(self.init.is_some());
         match (self.strategy, r) {
             (_, 0) if self.init.is_some() => RestartKind::Warm,
             (Strategy::Anneal, _) => RestartKind::Anneal,
             (Strategy::Warm, _) => RestartKind::Warm,
-            (Strategy::Auto, _) if deterministic => RestartKind::Anneal,
+            (Strategy::Portfolio, r) | (Strategy::Auto, r) if self.portfolio(deterministic) => {
+                if (r - first_free) % 2 == 0 { RestartKind::Anneal } else { RestartKind::Warm }
+            }
             (Strategy::Auto | Strategy::Mixed, r) if r == first_free => RestartKind::Anneal,
-            (Strategy::Auto | Strategy::Mixed, _) => RestartKind::Warm,
+            (Strategy::Auto | Strategy::Mixed | Strategy::Portfolio, _) => RestartKind::Warm,
         }
     }
 
-    /// The positive temperatures of a restart of kind `kind`.
-    pub fn schedule(&self, kind: RestartKind) -> Vec<f64> {
+    /// Whether restarts form a portfolio (see [`Strategy::Portfolio`]).
+    fn portfolio(&self, deterministic: bool) -> bool {
+        self.strategy == Strategy::Portfolio || (self.strategy == Strategy::Auto && deterministic)
+    }
+
+    /// The cooling factor of restart `r`: `cooling`, except for the faster anneal restarts of a
+    /// portfolio. At slow cooling the annealing path follows one branch of its bifurcations
+    /// whatever the noise, and on large UAV instances that branch is often a poor basin; faster
+    /// schedules are cheaper and, with the symmetry-breaking noise, take different branches.
+    pub fn restart_cooling(&self, r: usize, deterministic: bool) -> f64 {
+        let first_free = usize::from(self.init.is_some());
+        if !self.portfolio(deterministic)
+            || r <= first_free
+            || self.restart_kind(r, deterministic) != RestartKind::Anneal
+        {
+            return self.cooling;
+        }
+        let m = (r - first_free) / 2; // 1, 2, 3, … for the 2nd, 3rd, 4th… anneal restart
+        self.cooling.powi(2 + ((m - 1) % 3) as i32)
+    }
+
+    /// The positive temperatures of a restart of kind `kind` cooling by `cooling` per level.
+    pub fn schedule(&self, kind: RestartKind, cooling: f64) -> Vec<f64> {
         let mut out = Vec::new();
         let mut a = match kind {
             RestartKind::Anneal => self.alpha0,
@@ -183,7 +212,7 @@ impl OracleConfig {
         };
         while a > self.alpha_min * (1.0 + 1e-12) {
             out.push(a);
-            a *= self.cooling;
+            a *= cooling;
         }
         out.push(self.alpha_min);
         out
@@ -216,6 +245,8 @@ pub struct Restart {
     pub index: usize,
     /// Anneal or warm.
     pub kind: RestartKind,
+    /// Temperature factor per level.
+    pub cooling: f64,
     /// Initial design.
     pub zeta0: Vec<f64>,
     /// Final design.
@@ -335,7 +366,8 @@ pub fn anneal<M: ModelMdp + ?Sized>(
         RestartKind::Anneal => cfg.alpha_switch,
         RestartKind::Warm => f64::INFINITY,
     };
-    let mut alphas = cfg.schedule(kind);
+    let cooling = cfg.restart_cooling(index, deterministic);
+    let mut alphas = cfg.schedule(kind, cooling);
     if cfg.polish {
         alphas.push(0.0);
     }
@@ -397,6 +429,7 @@ pub fn anneal<M: ModelMdp + ?Sized>(
     Ok(Restart {
         index,
         kind,
+        cooling,
         zeta0: zeta0.to_vec(),
         zeta,
         j,
@@ -459,5 +492,52 @@ impl OracleOutcome {
             })),
             history: Some(history),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn flpo() -> envpg_core::LoadedEnv {
+        envpg_envs::registry().load("flpo-n10m4", &[]).unwrap()
+    }
+
+    #[test]
+    fn a_portfolio_alternates_warm_restarts_and_ever_faster_anneals() {
+        let env = flpo();
+        let cfg = OracleConfig { cooling: 0.8, ..OracleConfig::for_env(env.model().unwrap()) };
+        // Coolings to 1e-12 (`powi` may round differently from one build to another).
+        let plan = |cfg: &OracleConfig, deterministic: bool| -> Vec<(RestartKind, i64)> {
+            let q = |c: f64| (c * 1e12).round() as i64;
+            (0..9).map(|r| (cfg.restart_kind(r, deterministic), q(cfg.restart_cooling(r, deterministic)))).collect()
+        };
+        let (a, w) = (RestartKind::Anneal, RestartKind::Warm);
+        let c = |k: i32| (0.8f64.powi(k) * 1e12).round() as i64;
+        let portfolio =
+            vec![(a, c(1)), (w, c(1)), (a, c(2)), (w, c(1)), (a, c(3)), (w, c(1)), (a, c(4)), (w, c(1)), (a, c(2))];
+        assert_eq!(plan(&cfg, true), portfolio, "auto on a deterministic model");
+        assert_eq!(plan(&OracleConfig { strategy: Strategy::Portfolio, ..cfg.clone() }, false), portfolio);
+        let mixed: Vec<_> = (0..9).map(|r| (if r == 0 { a } else { w }, c(1))).collect();
+        assert_eq!(plan(&cfg, false), mixed, "auto on a stochastic model");
+        // A first design of the user's own starts warm; the portfolio follows it.
+        let init = OracleConfig { init: Some(env.model().unwrap().heuristic_design().unwrap()), ..cfg.clone() };
+        assert_eq!(plan(&init, true)[..4], [(w, c(1)), (a, c(1)), (w, c(1)), (a, c(2))]);
+    }
+
+    #[test]
+    fn a_portfolio_keeps_the_single_cooling_anneal_as_its_first_restart() {
+        // The portfolio never does worse than annealing at `cooling` alone: its restart 0 is that
+        // anneal, bit for bit.
+        let env = flpo();
+        let model = env.model().unwrap();
+        let base = OracleConfig { restarts: 3, threads: 1, ..OracleConfig::for_env(model) };
+        let portfolio = run_oracle(model, &OracleConfig { strategy: Strategy::Portfolio, ..base.clone() }).unwrap();
+        let anneal = run_oracle(model, &OracleConfig { strategy: Strategy::Anneal, ..base }).unwrap();
+        assert_eq!(portfolio.restarts[0].zeta, anneal.restarts[0].zeta);
+        assert_eq!(portfolio.restarts[0].j.to_bits(), anneal.restarts[0].j.to_bits());
+        assert!(portfolio.restarts[portfolio.best].j <= anneal.restarts[0].j);
+        assert_eq!(portfolio.restarts[1].kind, RestartKind::Warm);
+        assert_eq!(portfolio.restarts[2].cooling, portfolio.restarts[0].cooling.powi(2));
     }
 }
