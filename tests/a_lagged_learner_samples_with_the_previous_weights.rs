@@ -36,12 +36,16 @@ fn batch_k_plus_one_is_sampled_with_the_weights_update_k_started_from() {
     // A checkpointed lagged state restores exactly, and only into a lagged learner.
     let st = learner.state();
     assert!(st.lagged.is_some());
+    // Checkpoints serialise the state borrowed: the same bytes as the copy.
+    let bytes = postcard::to_stdvec(&st).unwrap();
+    assert_eq!(postcard::to_stdvec(&learner.state_ref()).unwrap(), bytes);
     let (_, _, mut again) = spec.start(&support::registry()).unwrap();
     again.restore(st.clone()).unwrap();
     assert_eq!(again.state(), st);
     let mut unlagged = spec.clone();
     unlagged.config.lag = 0;
     let (_, _, mut other) = unlagged.start(&support::registry()).unwrap();
+    assert_eq!(postcard::to_stdvec(&other.state_ref()).unwrap(), postcard::to_stdvec(&other.state()).unwrap());
     let e = other.restore(st).unwrap_err();
     assert!(e.contains("policy lag"), "{e}");
 }

@@ -22,6 +22,14 @@ use crate::nets::{ActionSets, Columns, Net, softmax};
 use crate::rollout::{Episode, EpisodeKind, episode_ids};
 use crate::table::PolicyTable;
 
+/// Transitions (or states) per network evaluation over every valid action: bounds the columns
+/// held at once — one per valid action, each with its dense features (with the routed ζ-block,
+/// (actions + sources) × d floats: 6.7 KB a column at 10,000 users and 20 UAVs) — whatever the
+/// batch (the whole batch at once held 220 MB there). A network
+/// with one hidden layer (the default) evaluates its columns one by one, so chunking changes no
+/// bit; the chunk is fixed, so results never depend on how the batch was gathered.
+const EVAL_CHUNK: usize = 64;
+
 /// The episodes of one iteration, ordered as [`episode_ids`].
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct Batch {
@@ -126,6 +134,27 @@ pub struct LearnerState {
     pub zeta_count: u64,
     /// With a policy lag, the weights the next batch is sampled with (see [`Behaviour`]).
     pub lagged: Option<Behaviour>,
+}
+
+/// [`LearnerState`] borrowed from the learner ([`Learner::state_ref`]): serialises to the same
+/// bytes (serde writes a slice like a vector), so a checkpoint need not copy θ, φ, φ⁻ and their
+/// optimisers first — tens of MB at 10,000 users.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct LearnerStateRef<'a> {
+    k: u64,
+    zeta: &'a [f64],
+    alpha: f64,
+    actor: &'a [f32],
+    critic: &'a [f32],
+    target: &'a [f32],
+    q_scale: f32,
+    actor_opt: &'a Adam,
+    critic_opt: &'a Adam,
+    zeta_opt: &'a Adam,
+    visits: &'a [f64],
+    zeta_sum: &'a [f64],
+    zeta_count: u64,
+    lagged: Option<&'a Behaviour>,
 }
 
 /// The weights a batch is sampled with when the run has a policy lag ([`AcConfig::lag`]): the
@@ -312,6 +341,26 @@ impl Learner {
             zeta_sum: self.zeta_sum.clone(),
             zeta_count: self.zeta_count,
             lagged: self.lagged.clone(),
+        }
+    }
+
+    /// [`Learner::state`] without copying it: the same serialised bytes.
+    pub fn state_ref(&self) -> LearnerStateRef<'_> {
+        LearnerStateRef {
+            k: self.k,
+            zeta: &self.zeta,
+            alpha: self.alpha,
+            actor: self.actor.mlp.params(),
+            critic: self.critic.mlp.params(),
+            target: self.target.mlp.params(),
+            q_scale: self.critic.scale(),
+            actor_opt: &self.actor_opt,
+            critic_opt: &self.critic_opt,
+            zeta_opt: &self.zeta_opt,
+            visits: &self.visits,
+            zeta_sum: &self.zeta_sum,
+            zeta_count: self.zeta_count,
+            lagged: self.lagged.as_ref(),
         }
     }
 
@@ -615,48 +664,51 @@ impl Learner {
     /// ln π_θk(a_i|s_i, ζ_pert,i) for every transition (the entropy term of the TD targets).
     fn log_pi_at_pert(&mut self, f: &Flat) -> Vec<f64> {
         let d = self.zeta.len();
-        let mut cols = Columns::default();
-        for i in 0..f.s.len() {
-            for &a in self.sets.of(f.s[i]) {
-                cols.push(&self.features, f.s[i], a, &f.zeta[i * d..(i + 1) * d], i as u32);
-            }
-        }
-        let mut logits = Vec::new();
-        self.actor.values(&cols, &mut logits);
         let mut out = Vec::with_capacity(f.s.len());
-        let mut probs = Vec::new();
-        let mut c = 0;
-        for i in 0..f.s.len() {
-            let acts = self.sets.of(f.s[i]);
-            probs.resize(acts.len(), 0.0);
-            softmax(&logits[c..c + acts.len()], &mut probs);
-            let k = acts.iter().position(|&a| a == f.a[i]).expect("validated");
-            out.push(probs[k].max(f64::MIN_POSITIVE).ln());
-            c += acts.len();
+        let (mut cols, mut logits, mut probs) = (Columns::default(), Vec::new(), Vec::new());
+        for lo in (0..f.s.len()).step_by(EVAL_CHUNK) {
+            let hi = (lo + EVAL_CHUNK).min(f.s.len());
+            cols.clear();
+            for i in lo..hi {
+                for &a in self.sets.of(f.s[i]) {
+                    cols.push(&self.features, f.s[i], a, &f.zeta[i * d..(i + 1) * d], i as u32);
+                }
+            }
+            self.actor.values(&cols, &mut logits);
+            let mut c = 0;
+            for i in lo..hi {
+                let acts = self.sets.of(f.s[i]);
+                probs.resize(acts.len(), 0.0);
+                softmax(&logits[c..c + acts.len()], &mut probs);
+                let k = acts.iter().position(|&a| a == f.a[i]).expect("validated");
+                out.push(probs[k].max(f64::MIN_POSITIVE).ln());
+                c += acts.len();
+            }
         }
         out
     }
 
     /// `V⁻(s') = Σ_a' π_θk(a'|s', ζ_k) Q_φ⁻(s', a', ζ_k)` for the given states.
     fn target_values(&mut self, states: &[usize], table: &mut PolicyTable) -> Vec<f64> {
-        let mut cols = Columns::default();
-        for &s in states {
-            for &a in self.sets.of(s) {
-                cols.push(&self.features, s, a, &self.zeta, 0);
+        let mut out = Vec::with_capacity(states.len());
+        let (mut cols, mut q) = (Columns::default(), Vec::new());
+        for chunk in states.chunks(EVAL_CHUNK) {
+            cols.clear();
+            for &s in chunk {
+                for &a in self.sets.of(s) {
+                    cols.push(&self.features, s, a, &self.zeta, 0);
+                }
             }
-        }
-        let mut q = Vec::new();
-        self.target.values(&cols, &mut q);
-        let mut c = 0;
-        states
-            .iter()
-            .map(|&s| {
+            self.target.values(&cols, &mut q);
+            let mut c = 0;
+            out.extend(chunk.iter().map(|&s| {
                 let p = table.of(s);
-                let v = p.iter().zip(&q[c..c + p.len()]).map(|(p, q)| p * *q as f64).sum();
+                let v: f64 = p.iter().zip(&q[c..c + p.len()]).map(|(p, q)| p * *q as f64).sum();
                 c += p.len();
                 v
-            })
-            .collect()
+            }));
+        }
+        out
     }
 
     /// Minibatch indices for learner purpose `(k, j)`: `min(N, n)` distinct transitions of the

@@ -80,17 +80,40 @@ pub enum CheckpointError {
     },
 }
 
+/// An `io::Write` that only hashes what it is given.
+struct CrcWriter(crc32fast::Hasher);
+
+impl std::io::Write for CrcWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.update(buf);
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
 impl Checkpoint {
     /// The framed file contents.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let payload = postcard::to_stdvec(self).expect("checkpoint serialises");
-        let mut out = Vec::with_capacity(HEADER_LEN + payload.len());
-        out.extend_from_slice(&FILE_MAGIC);
-        out.extend_from_slice(&FILE_FORMAT.to_le_bytes());
-        out.extend_from_slice(&crc32fast::hash(&payload).to_le_bytes());
-        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        out.extend_from_slice(&payload);
+        let mut out = Vec::new();
+        self.write_to(&mut out).expect("writing to memory cannot fail");
         out
+    }
+
+    /// Writes the framed file contents to `w`, streaming the payload: a checkpoint of a large
+    /// run is tens of MB, and the learner's peak memory would otherwise be this copy of it. The
+    /// payload is serialised twice — once into its CRC, once into `w` — rather than held.
+    pub fn write_to(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        let invalid = |e: postcard::Error| std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string());
+        let len = postcard::experimental::serialized_size(self).map_err(invalid)?;
+        let crc = postcard::to_io(self, CrcWriter(crc32fast::Hasher::new())).map_err(invalid)?.0.finalize();
+        w.write_all(&FILE_MAGIC)?;
+        w.write_all(&FILE_FORMAT.to_le_bytes())?;
+        w.write_all(&crc.to_le_bytes())?;
+        w.write_all(&(len as u64).to_le_bytes())?;
+        postcard::to_io(self, w).map_err(invalid)?;
+        Ok(())
     }
 
     /// Parses framed file contents (`path` names the file in errors).
