@@ -63,3 +63,12 @@ with open(f"{out}/table.md", "w") as f:
                 f"{round(frac * 16)}/16 | {wall:.1f} s | {cpu:.1f} s |\n")
 print(open(f"{out}/table.md").read())
 PY
+# Committed result files keep what recomputing J needs: policy_soft dropped, compact JSON.
+python3 - "$out" <<'PY'
+import glob, json, sys
+for path in glob.glob(f"{sys.argv[1]}/*.json"):
+    r = json.load(open(path))
+    for key in ("policy_soft",):
+        r.pop(key, None)
+    json.dump(r, open(path, "w"), separators=(",", ":"))
+PY
