@@ -80,12 +80,17 @@ pub enum CheckpointError {
     },
 }
 
-/// An `io::Write` that only hashes what it is given.
-struct CrcWriter(crc32fast::Hasher);
+/// An `io::Write` that only hashes and counts what it is given.
+#[derive(Default)]
+struct CrcWriter {
+    crc: crc32fast::Hasher,
+    len: usize,
+}
 
 impl std::io::Write for CrcWriter {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.0.update(buf);
+        self.crc.update(buf);
+        self.len += buf.len();
         Ok(buf.len())
     }
     fn flush(&mut self) -> std::io::Result<()> {
@@ -103,11 +108,12 @@ impl Checkpoint {
 
     /// Writes the framed file contents to `w`, streaming the payload: a checkpoint of a large
     /// run is tens of MB, and the learner's peak memory would otherwise be this copy of it. The
-    /// payload is serialised twice — once into its CRC, once into `w` — rather than held.
+    /// payload is serialised twice — once into its CRC and length, once into `w` — rather than
+    /// held.
     pub fn write_to(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
         let invalid = |e: postcard::Error| std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string());
-        let len = postcard::experimental::serialized_size(self).map_err(invalid)?;
-        let crc = postcard::to_io(self, CrcWriter(crc32fast::Hasher::new())).map_err(invalid)?.0.finalize();
+        let sum = postcard::to_io(self, CrcWriter::default()).map_err(invalid)?;
+        let (crc, len) = (sum.crc.finalize(), sum.len);
         w.write_all(&FILE_MAGIC)?;
         w.write_all(&FILE_FORMAT.to_le_bytes())?;
         w.write_all(&crc.to_le_bytes())?;
