@@ -213,6 +213,14 @@ pub struct Learner {
     critic_grad: Vec<f32>,
 }
 
+/// An actor forward pass over one actor minibatch (`idx`, in order): the columns of every valid
+/// action of each transition and their logits; the activations stay in the actor's cache.
+struct ActorPass {
+    idx: Vec<usize>,
+    cols: Columns,
+    logits: Vec<f32>,
+}
+
 /// Flattened transitions of a batch.
 #[derive(Default)]
 struct Flat {
@@ -536,8 +544,20 @@ impl Learner {
                 net.mlp.set_output_bias(stats.j_estimate.signum() as f32);
             }
         }
+        // When the first actor minibatch holds every transition, its actor pass gives the
+        // entropy terms of the TD targets too (the actor does not change before it): one pass
+        // over the batch instead of two.
+        let mut first_actor_pass = None;
         if !flat.s.is_empty() {
-            let ln_pi = self.log_pi_at_pert(&flat);
+            let shared = cfg.actor_update == ActorUpdate::GibbsFit && cfg.actor_steps > 0 && cfg.batch >= flat.s.len();
+            let ln_pi = if shared {
+                let pass = self.actor_pass(&flat, 0);
+                let ln_pi = self.log_pi_of_pass(&flat, &pass);
+                first_actor_pass = Some(pass);
+                ln_pi
+            } else {
+                self.log_pi_at_pert(&flat)
+            };
             for step in 0..cfg.critic_steps {
                 stats.critic_loss = self.critic_step(&flat, &ln_pi, &mut table, step);
             }
@@ -562,7 +582,13 @@ impl Learner {
             if !flat.s.is_empty() {
                 for step in 0..cfg.actor_steps {
                     stats.actor_loss = match cfg.actor_update {
-                        ActorUpdate::GibbsFit => self.actor_gibbs_step(&flat, step),
+                        ActorUpdate::GibbsFit => {
+                            let pass = match first_actor_pass.take() {
+                                Some(pass) => pass,
+                                None => self.actor_pass(&flat, step),
+                            };
+                            self.actor_gibbs_step(&flat, pass)
+                        }
                         ActorUpdate::Pg => self.actor_pg_step(&on),
                     };
                 }
@@ -777,10 +803,9 @@ impl Learner {
         loss
     }
 
-    /// Cross-entropy fit of π_θ(·|s, ζ_pert) to the critic's Gibbs policy
-    /// `∝ π_θ(a|s) exp(−Q_φ(s,a,ζ_pert)/α)` (Q_φ includes the current step's α ln π term, so this
-    /// is `∝ exp(−Q̃/α)` with Q̃ the entropy-free action value).
-    fn actor_gibbs_step(&mut self, f: &Flat, step: usize) -> f64 {
+    /// The actor's forward pass over actor step `step`'s minibatch: every valid action of each
+    /// transition at its perturbed design, activations kept in the actor for the step's backprop.
+    fn actor_pass(&mut self, f: &Flat, step: usize) -> ActorPass {
         let d = self.zeta.len();
         let idx = self.minibatch(f.s.len(), (self.cfg.critic_steps + step) as u64);
         let mut cols = Columns::default();
@@ -789,8 +814,34 @@ impl Learner {
                 cols.push(&self.features, f.s[i], a, &f.zeta[i * d..(i + 1) * d], i as u32);
             }
         }
-        let (mut logits, mut q) = (Vec::new(), Vec::new());
+        let mut logits = Vec::new();
         self.actor.eval(&cols, &mut logits);
+        ActorPass { idx, cols, logits }
+    }
+
+    /// [`Learner::log_pi_at_pert`] read off an actor pass that covers every transition.
+    fn log_pi_of_pass(&self, f: &Flat, pass: &ActorPass) -> Vec<f64> {
+        let mut out = vec![0.0; f.s.len()];
+        let mut probs = Vec::new();
+        let mut c = 0;
+        for &i in &pass.idx {
+            let acts = self.sets.of(f.s[i]);
+            probs.resize(acts.len(), 0.0);
+            softmax(&pass.logits[c..c + acts.len()], &mut probs);
+            let k = acts.iter().position(|&a| a == f.a[i]).expect("validated");
+            out[i] = probs[k].max(f64::MIN_POSITIVE).ln();
+            c += acts.len();
+        }
+        out
+    }
+
+    /// Cross-entropy fit of π_θ(·|s, ζ_pert) to the critic's Gibbs policy
+    /// `∝ π_θ(a|s) exp(−Q_φ(s,a,ζ_pert)/α)` (Q_φ includes the current step's α ln π term, so this
+    /// is `∝ exp(−Q̃/α)` with Q̃ the entropy-free action value), on the minibatch of `pass`
+    /// (the actor's last forward pass).
+    fn actor_gibbs_step(&mut self, f: &Flat, pass: ActorPass) -> f64 {
+        let ActorPass { idx, cols, logits } = pass;
+        let mut q = Vec::new();
         self.critic.values(&cols, &mut q);
         let n = idx.len() as f64;
         let mut dlogit = vec![0.0f32; cols.len()];
@@ -987,5 +1038,36 @@ fn add_input_gradient(
     net.backprop(cols, dout, None, Some(&mut di));
     for (c, &(s, a)) in cols.sa.iter().enumerate() {
         features.chain(s as usize, a as usize, zeta, &di[c * dense..(c + 1) * dense], weight(c), g);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rollout::run_iteration;
+    use crate::trainer::{RunSpec, advance};
+
+    #[test]
+    fn the_shared_actor_pass_gives_the_entropy_terms_bit_for_bit() {
+        let config = AcConfig::bundled("uav").expect("bundled preset");
+        let registry = envpg_envs::registry();
+        let env = registry.load("uav271", &[]).expect("bundled instance");
+        let spec = RunSpec::new(&env, 3, config.clone());
+        let (_, mut learner) = spec.start_on(&env).expect("valid spec");
+        let streams = envpg_core::Streams::new(spec.seed);
+        advance(env.sampler(), &mut learner, &config, &streams, 2).expect("valid batches");
+        let mut table = learner.policy_table();
+        let zeta = learner.zeta().to_vec();
+        let sets = learner.action_sets().clone();
+        let episodes = run_iteration(env.sampler(), &sets, &mut table, &zeta, &config, &streams, learner.k());
+        let flat = learner.flatten(&Batch { k: learner.k(), episodes }).expect("valid batch");
+        assert!(flat.s.len() <= config.batch, "the minibatch covers the buffer");
+        let separate = learner.log_pi_at_pert(&flat);
+        let pass = learner.actor_pass(&flat, 0);
+        let shared = learner.log_pi_of_pass(&flat, &pass);
+        assert_eq!(pass.idx.len(), flat.s.len());
+        assert!(separate.iter().all(|l| l.is_finite() && *l <= 0.0));
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&separate), bits(&shared));
     }
 }

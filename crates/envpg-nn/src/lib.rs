@@ -40,6 +40,7 @@
 
 pub mod activation;
 pub mod adam;
+mod gather;
 pub mod linear;
 pub mod mlp;
 

@@ -6,6 +6,7 @@ use rand_distr::{Distribution, Uniform};
 use serde::{Deserialize, Serialize};
 
 use crate::Scalar;
+use crate::gather::{Term, accumulate, push_nonzeros};
 use crate::linear::{Mat, Op, gemm};
 
 /// Shape of an [`Mlp`].
@@ -170,33 +171,25 @@ impl<T: Scalar> Mlp<T> {
         sig0.clear();
         sig0.resize(h0 * bsz, T::zero());
         a0.resize(h0 * bsz, T::zero());
-        // Dense part of layer 0 for the whole batch (a matrix product keeps the weights in
-        // registers), then bias, one-hot columns, SiLU and (one hidden layer) the output dot
+        // Dense inputs that are mostly zero (slotted blocks) join the bias and one-hot columns as
+        // terms of one register-blocked sum per column (`gather`); otherwise the dense part is
+        // one matrix product for the whole batch. Then SiLU and (one hidden layer) the output dot
         // per column while the column is hot in L1.
         let dense = self.spec.dense;
-        if dense > 0 {
+        let sparse = dense > 0 && mostly_zero(x.dense);
+        if dense > 0 && !sparse {
             let lay = &self.layers[0];
             let w = &self.params[lay.w + h0 * self.onehot_total..lay.b];
-            if mostly_zero(x.dense) {
-                // Sparse inputs (slotted blocks): axpys over the non-zero entries only.
-                for s in 0..bsz {
-                    let z = &mut sig0[s * h0..(s + 1) * h0];
-                    for (i, &xi) in x.dense[s * dense..(s + 1) * dense].iter().enumerate() {
-                        if xi != T::zero() {
-                            axpy(xi, &w[i * h0..(i + 1) * h0], z);
-                        }
-                    }
-                }
-            } else {
-                let wd = Mat::new(w, h0, dense);
-                gemm(T::one(), wd, Op::N, Mat::new(x.dense, dense, bsz), Op::N, T::zero(), &mut sig0, h0, bsz);
-            }
+            let wd = Mat::new(w, h0, dense);
+            gemm(T::one(), wd, Op::N, Mat::new(x.dense, dense, bsz), Op::N, T::zero(), &mut sig0, h0, bsz);
         }
         let last = &self.layers[n_hidden];
+        let mut terms = Vec::with_capacity(if sparse { dense } else { 0 } + self.spec.onehot.len() + 1);
         for s in 0..bsz {
             let z = &mut sig0[s * h0..(s + 1) * h0];
             let a = &mut a0[s * h0..(s + 1) * h0];
-            self.layer0_sparse(x, s, z);
+            self.layer0_terms(x, s, sparse, &mut terms);
+            accumulate(&self.params, &terms, z);
             T::silu_inplace(z, a);
             if n_hidden == 1 {
                 out[s] = self.params[last.b] + dot(&self.params[last.w..last.b], a);
@@ -255,41 +248,38 @@ impl<T: Scalar> Mlp<T> {
         }
         self.check_inputs(x);
         assert_eq!(out.len(), x.batch, "output size");
-        let lay = &self.layers[0];
-        let h = lay.rows;
-        let dense = self.spec.dense;
-        let wd = &self.params[lay.w + h * self.onehot_total..lay.b];
+        let h = self.layers[0].rows;
         let last = &self.layers[1];
         let (w_out, b_out) = (&self.params[last.w..last.b], self.params[last.b]);
         let mut z = vec![T::zero(); h];
         let mut a = vec![T::zero(); h];
+        let mut terms = Vec::with_capacity(self.spec.dense + self.spec.onehot.len() + 1);
         for s in 0..x.batch {
             z.iter_mut().for_each(|v| *v = T::zero());
-            // W_d·x as axpys over one column held in L1.
-            for (i, &xi) in x.dense[s * dense..(s + 1) * dense].iter().enumerate() {
-                if xi != T::zero() {
-                    axpy(xi, &wd[i * h..(i + 1) * h], &mut z);
-                }
-            }
-            self.layer0_sparse(x, s, &mut z);
+            self.layer0_terms(x, s, true, &mut terms);
+            accumulate(&self.params, &terms, &mut z);
             T::silu_inplace(&mut z, &mut a);
             out[s] = b_out + dot(w_out, &a);
         }
     }
 
-    /// Adds layer 0's bias and the gathered one-hot columns of sample `s` to `z`.
+    /// The terms of layer 0's pre-activation of sample `s`, in the order they are added: the
+    /// non-zero dense inputs (if `dense_terms`), the bias, then the gathered one-hot columns.
     #[inline(always)]
-    fn layer0_sparse(&self, x: &Inputs<'_, T>, s: usize, z: &mut [T]) {
+    fn layer0_terms(&self, x: &Inputs<'_, T>, s: usize, dense_terms: bool, terms: &mut Vec<Term<T>>) {
         let lay = &self.layers[0];
         let h = lay.rows;
-        let w = &self.params[lay.w..lay.b];
-        axpy(T::one(), &self.params[lay.b..lay.b + h], z);
+        terms.clear();
+        let dense = self.spec.dense;
+        if dense_terms {
+            push_nonzeros(&x.dense[s * dense..(s + 1) * dense], lay.w + h * self.onehot_total, h, terms);
+        }
+        terms.push((T::one(), lay.b));
         let groups = self.spec.onehot.len();
         for g in 0..groups {
             let idx = x.onehot[s * groups + g] as usize;
             debug_assert!(idx < self.spec.onehot[g], "one-hot index out of range");
-            let c = self.group_offsets[g] + idx;
-            axpy(T::one(), &w[c * h..(c + 1) * h], z);
+            terms.push((T::one(), lay.w + (self.group_offsets[g] + idx) * h));
         }
     }
 
@@ -624,8 +614,9 @@ mod tests {
             let (mut out, mut out2) = (vec![0.0; bsz], vec![0.0; bsz]);
             m.forward(&x, &mut Cache::default(), &mut out);
             m.eval(&x, &mut out2);
+            // Bit for bit: the learner reads one forward pass both as values and for backprop.
             for s in 0..bsz {
-                assert!((out[s] - out2[s]).abs() < 1e-12, "eval {} vs forward {}", out2[s], out[s]);
+                assert_eq!(out[s].to_bits(), out2[s].to_bits(), "eval {} vs forward {}", out2[s], out[s]);
             }
             assert_gradients_match_central_differences(&mut m, &onehot, &dense, bsz);
         }
