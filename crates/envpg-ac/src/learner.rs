@@ -546,13 +546,18 @@ impl Learner {
         }
         // When the first actor minibatch holds every transition, its actor pass gives the
         // entropy terms of the TD targets too (the actor does not change before it): one pass
-        // over the batch instead of two.
+        // over the batch instead of two — where that pass gives the bits the separate
+        // evaluation would, so that no result changes.
         let mut first_actor_pass = None;
         if !flat.s.is_empty() {
             let shared = cfg.actor_update == ActorUpdate::GibbsFit && cfg.actor_steps > 0 && cfg.batch >= flat.s.len();
             let ln_pi = if shared {
                 let pass = self.actor_pass(&flat, 0);
-                let ln_pi = self.log_pi_of_pass(&flat, &pass);
+                let ln_pi = if self.actor.mlp.eval_matches_forward(&pass.cols.inputs()) {
+                    self.log_pi_of_pass(&flat, &pass)
+                } else {
+                    self.log_pi_at_pert(&flat)
+                };
                 first_actor_pass = Some(pass);
                 ln_pi
             } else {
@@ -1065,6 +1070,7 @@ mod tests {
         let separate = learner.log_pi_at_pert(&flat);
         let pass = learner.actor_pass(&flat, 0);
         let shared = learner.log_pi_of_pass(&flat, &pass);
+        assert!(learner.actor.mlp.eval_matches_forward(&pass.cols.inputs()));
         assert_eq!(pass.idx.len(), flat.s.len());
         assert!(separate.iter().all(|l| l.is_finite() && *l <= 0.0));
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();

@@ -263,6 +263,14 @@ impl<T: Scalar> Mlp<T> {
         }
     }
 
+    /// Whether [`Mlp::eval`] and [`Mlp::forward`] give the same bits on `x`: always with more than
+    /// one hidden layer, and with one when the dense inputs are absent or mostly zero (then both
+    /// sum the same terms in the same order; otherwise `forward` takes the dense part as one
+    /// matrix product).
+    pub fn eval_matches_forward(&self, x: &Inputs<'_, T>) -> bool {
+        self.spec.hidden.len() > 1 || self.spec.dense == 0 || mostly_zero(x.dense)
+    }
+
     /// The terms of layer 0's pre-activation of sample `s`, in the order they are added: the
     /// non-zero dense inputs (if `dense_terms`), the bias, then the gathered one-hot columns.
     #[inline(always)]
