@@ -709,10 +709,7 @@ impl Learner {
             let mut c = 0;
             for i in lo..hi {
                 let acts = self.sets.of(f.s[i]);
-                probs.resize(acts.len(), 0.0);
-                softmax(&logits[c..c + acts.len()], &mut probs);
-                let k = acts.iter().position(|&a| a == f.a[i]).expect("validated");
-                out.push(probs[k].max(f64::MIN_POSITIVE).ln());
+                out.push(ln_pi_taken(acts, f.a[i], &logits[c..c + acts.len()], &mut probs));
                 c += acts.len();
             }
         }
@@ -831,10 +828,7 @@ impl Learner {
         let mut c = 0;
         for &i in &pass.idx {
             let acts = self.sets.of(f.s[i]);
-            probs.resize(acts.len(), 0.0);
-            softmax(&pass.logits[c..c + acts.len()], &mut probs);
-            let k = acts.iter().position(|&a| a == f.a[i]).expect("validated");
-            out[i] = probs[k].max(f64::MIN_POSITIVE).ln();
+            out[i] = ln_pi_taken(acts, f.a[i], &pass.logits[c..c + acts.len()], &mut probs);
             c += acts.len();
         }
         out
@@ -943,6 +937,14 @@ impl Learner {
         let gamma = self.gamma;
         zeta_gradient(&mut self.actor, &mut self.critic, &self.features, &self.sets, &self.zeta, on, estimator, gamma)
     }
+}
+
+/// `ln π(a|s)` from the logits of the valid actions `acts` of s (`probs` is scratch).
+fn ln_pi_taken(acts: &[usize], a: usize, logits: &[f32], probs: &mut Vec<f64>) -> f64 {
+    probs.resize(acts.len(), 0.0);
+    softmax(logits, probs);
+    let k = acts.iter().position(|&x| x == a).expect("validated");
+    probs[k].max(f64::MIN_POSITIVE).ln()
 }
 
 /// One on-policy step's columns: (first column, number of actions, index of the taken action,
