@@ -66,3 +66,29 @@ fn a_lagged_run_is_the_same_in_every_mode_and_differs_from_an_unlagged_one() {
     let unlagged = serde_json::to_value(envpg_ac::trainer::train(&spec, &registry, |_| true).unwrap()).unwrap();
     assert_ne!(lagged["history"], unlagged["history"], "--lag 1 changed nothing");
 }
+
+#[test]
+fn a_per_element_one_hot_run_is_the_same_distributed_and_serial_and_differs_from_per_state() {
+    let dir = tempfile::tempdir().unwrap();
+    let inst = tiny_instance_file(dir.path());
+    let out = dir.path().join("per-element.json");
+    let mut args = with(small_run(&inst, 11, 60), &["--state-onehot", "per-element", "--workers", "2"]);
+    args.extend(["--out".to_string(), out.display().to_string()]);
+    let o = run(&args, Duration::from_secs(120));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let distributed = comparable(&out);
+    assert_eq!(distributed["config"]["state_onehot"], "per-element");
+    // The workers build the learner's inputs: the serial trainer's run is the same.
+    let registry = support::registry();
+    let env = registry.load(&inst, &[("kappa".into(), 0.9)]).unwrap();
+    let per_state = envpg_ac::AcConfig { warmup: 20, eval_every: 20, ..support::small_config(60) };
+    let per_element = envpg_ac::AcConfig { state_onehot: envpg_ac::StateOnehot::PerElement, ..per_state.clone() };
+    let serial = |config| {
+        let path = dir.path().join("serial.json");
+        let spec = envpg_ac::trainer::RunSpec::new(&env, 11, config);
+        envpg_ac::trainer::train(&spec, &registry, |_| true).unwrap().save(&path).unwrap();
+        comparable(&path)
+    };
+    assert_eq!(serial(per_element), distributed);
+    assert_ne!(serial(per_state)["history"], distributed["history"], "per-element changed nothing");
+}

@@ -95,6 +95,9 @@ pub struct AcConfig {
     pub hidden: Vec<usize>,
     /// How ζ itself is fed to the networks.
     pub zeta_input: crate::features::ZetaInput,
+    /// Which one-hot column each state has: one per state, or one per design element's states
+    /// and one shared by the rest (which the environment's own features then tell apart).
+    pub state_onehot: crate::features::StateOnehot,
     /// Critic learning rate (Adam).
     pub critic_lr: f64,
     /// Critic steps per iteration.
@@ -210,6 +213,7 @@ impl Default for AcConfig {
             sigma_anneal: 1.0,
             hidden: vec![128],
             zeta_input: crate::features::ZetaInput::Routed,
+            state_onehot: crate::features::StateOnehot::PerState,
             critic_lr: 1e-3,
             critic_steps: 2,
             batch: 256,
@@ -443,6 +447,21 @@ impl AcConfig {
             && let Some(i) = z.iter().position(|x| !x.is_finite())
         {
             return err("zeta0", format!("entry {i} is not finite"));
+        }
+        Ok(())
+    }
+
+    /// Checks the settings that depend on the environment: `state_onehot = per-element` needs
+    /// the environment's own features (`feature_map`), which tell apart the states that share
+    /// a column.
+    pub fn validate_for(&self, feature_map: Option<&dyn envpg_core::FeatureMap>) -> Result<(), ConfigError> {
+        if self.state_onehot == crate::features::StateOnehot::PerElement && feature_map.is_none() {
+            return Err(ConfigError {
+                field: "state_onehot",
+                reason: "per-element needs an environment with its own features (Env::feature_map); without them \
+                         the states outside the design elements could not be told apart"
+                    .into(),
+            });
         }
         Ok(())
     }

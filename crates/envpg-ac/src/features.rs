@@ -45,6 +45,21 @@ pub enum ZetaInput {
     Routed,
 }
 
+/// Which one-hot column a state has.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StateOnehot {
+    /// One column per state: the networks tell every state apart, at the cost of input
+    /// weights (and parameters) that grow with the number of states.
+    #[default]
+    PerState,
+    /// One column per design element's states, and one shared by every other state: states
+    /// outside the design elements are told apart only by the environment's own features
+    /// (positions, distances), so θ no longer grows with them and what is learnt for one
+    /// carries over to its neighbours. Needs an environment feature map.
+    PerElement,
+}
+
 /// Feature map of one environment.
 #[derive(Clone)]
 pub struct Features {
@@ -58,6 +73,7 @@ pub struct Features {
     n_actions: usize,
     d: usize,
     onehot_state: bool,
+    state_onehot: StateOnehot,
     onehot_action: bool,
     provider: Option<Arc<dyn FeatureMap>>,
     /// Dense features of the provider (before the ζ-block).
@@ -71,6 +87,7 @@ impl std::fmt::Debug for Features {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Features")
             .field("zeta_input", &self.zeta_input)
+            .field("state_onehot", &self.state_onehot)
             .field("onehot", &self.onehot())
             .field("dense", &self.dense_dim())
             .finish()
@@ -79,8 +96,21 @@ impl std::fmt::Debug for Features {
 
 impl Features {
     /// The feature map of `env`, with its own dense features `provider` (its
-    /// `Env::feature_map`) if any, and ζ entering as `zeta_input`.
+    /// `Env::feature_map`) if any, and ζ entering as `zeta_input`; one one-hot column per
+    /// state (where the provider wants a one-hot state).
     pub fn new<E: ParamMdp + ?Sized>(env: &E, provider: Option<Arc<dyn FeatureMap>>, zeta_input: ZetaInput) -> Self {
+        Self::with_state_onehot(env, provider, zeta_input, StateOnehot::PerState)
+    }
+
+    /// [`Features::new`] with the states' one-hot columns as `state_onehot` says
+    /// ([`AcConfig::state_onehot`](crate::AcConfig::state_onehot), validated against the
+    /// environment by [`AcConfig::validate_for`](crate::AcConfig::validate_for)).
+    pub fn with_state_onehot<E: ParamMdp + ?Sized>(
+        env: &E,
+        provider: Option<Arc<dyn FeatureMap>>,
+        zeta_input: ZetaInput,
+        state_onehot: StateOnehot,
+    ) -> Self {
         let n = env.n_states();
         let d = env.zeta_dim();
         let space = env.zeta_space();
@@ -104,6 +134,7 @@ impl Features {
             n_actions: env.n_actions(),
             d,
             onehot_state,
+            state_onehot,
             onehot_action,
             provider,
             base,
@@ -116,7 +147,10 @@ impl Features {
     pub fn onehot(&self) -> Vec<usize> {
         let mut g = Vec::with_capacity(2);
         if self.onehot_state {
-            g.push(self.n_states);
+            g.push(match self.state_onehot {
+                StateOnehot::PerState => self.n_states,
+                StateOnehot::PerElement => self.n_elements + 1,
+            });
         }
         if self.onehot_action {
             g.push(self.n_actions);
@@ -128,7 +162,10 @@ impl Features {
     #[inline]
     pub fn push_onehot(&self, s: usize, a: usize, out: &mut Vec<u32>) {
         if self.onehot_state {
-            out.push(s as u32);
+            out.push(match self.state_onehot {
+                StateOnehot::PerState => s as u32,
+                StateOnehot::PerElement => self.source[s],
+            });
         }
         if self.onehot_action {
             out.push(a as u32);
@@ -281,5 +318,35 @@ mod tests {
         assert_eq!(routed.dense_dim(), 6 * (4 + 3 + 1));
         let with_geometry = Features::new(&net, net.feature_map(), ZetaInput::Routed);
         assert_eq!(with_geometry.dense_dim(), 7 + 6 * 8);
+    }
+
+    #[test]
+    fn per_element_one_hot_gives_each_uav_a_column_and_users_one_shared_column() {
+        let net = net();
+        let f = Features::with_state_onehot(&net, net.feature_map(), ZetaInput::Routed, StateOnehot::PerElement);
+        // 3 UAVs and one column shared by the 2 users and the destination; the actions keep
+        // theirs, and the dense features are unchanged.
+        assert_eq!(f.onehot(), vec![3 + 1, net.n_actions()]);
+        assert_eq!(f.dense_dim(), Features::new(&net, net.feature_map(), ZetaInput::Routed).dense_dim());
+        let column = |s: usize| {
+            let mut idx = Vec::new();
+            f.push_onehot(s, 0, &mut idx);
+            idx[0]
+        };
+        let uavs: Vec<u32> = (0..3).map(|j| column(net.uav_state(j))).collect();
+        assert_eq!(uavs, vec![0, 1, 2]);
+        assert_eq!((column(0), column(1)), (3, 3), "users share the last column");
+        let per_state = Features::new(&net, net.feature_map(), ZetaInput::Routed);
+        assert_eq!(per_state.onehot(), vec![net.n_states(), net.n_actions()]);
+    }
+
+    #[test]
+    fn per_element_one_hot_needs_the_environments_own_features() {
+        let net = net();
+        let cfg = crate::AcConfig { state_onehot: StateOnehot::PerElement, ..Default::default() };
+        assert!(cfg.validate_for(net.feature_map().as_deref()).is_ok());
+        let err = cfg.validate_for(None).unwrap_err();
+        assert_eq!(err.field, "state_onehot");
+        assert!(crate::AcConfig::default().validate_for(None).is_ok());
     }
 }

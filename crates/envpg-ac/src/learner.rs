@@ -250,7 +250,7 @@ impl Learner {
         zeta0: Vec<f64>,
     ) -> Self {
         assert_eq!(zeta0.len(), env.zeta_dim(), "zeta0 dimension");
-        let mut features = Features::new(&*env, feature_map, cfg.zeta_input);
+        let mut features = Features::with_state_onehot(&*env, feature_map, cfg.zeta_input, cfg.state_onehot);
         features.set_center(&zeta0);
         let sets = ActionSets::new(&*env);
         let streams = Streams::new(seed);

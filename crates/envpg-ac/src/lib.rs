@@ -63,7 +63,7 @@ pub mod trainer;
 pub mod zeta0;
 
 pub use config::{AcConfig, ActorUpdate, CriticInit, Zeta0, ZetaEstimator, ZetaOptimizer};
-pub use features::{Features, ZetaInput};
+pub use features::{Features, StateOnehot, ZetaInput};
 pub use learner::{Batch, Learner, LearnerError, LearnerState, Stats};
 pub use nets::ActionSets;
 pub use presets::Presets;

@@ -236,7 +236,7 @@ mod tests {
 
     #[test]
     fn bundled_presets_load() {
-        for name in ["uav", "default", "aac", "paper", "smoke"] {
+        for name in ["uav", "uav-large", "default", "aac", "paper", "smoke"] {
             AcConfig::bundled(name).unwrap();
         }
         assert_eq!(AcConfig::bundled("uav").unwrap(), AcConfig::default());

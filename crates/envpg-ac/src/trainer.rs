@@ -76,6 +76,7 @@ impl RunSpec {
     /// As [`RunSpec::start`], on an environment already built from this spec's instance.
     pub fn start_on(&self, env: &LoadedEnv) -> Result<(Vec<f64>, Learner), TrainError> {
         self.config.validate()?;
+        self.config.validate_for(env.env.feature_map().as_deref())?;
         let zeta0 = initial_design(env.sampler(), &self.config.zeta0, self.seed).map_err(TrainError::Zeta0)?;
         let config = self.config.resolve(env.sampler());
         let learner = Learner::new(env.shared_sampler(), env.env.feature_map(), config, self.seed, zeta0.clone());

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
 use envpg_ac::trainer::RunSpec;
-use envpg_ac::{AcConfig, ActorUpdate, CriticInit, Zeta0, ZetaEstimator, ZetaInput, ZetaOptimizer};
+use envpg_ac::{AcConfig, ActorUpdate, CriticInit, StateOnehot, Zeta0, ZetaEstimator, ZetaInput, ZetaOptimizer};
 use envpg_core::{LoadedEnv, Registry, ResultFile};
 
 /// What to train: problem, seed, preset and per-setting overrides.
@@ -105,6 +105,11 @@ pub struct TrainArgs {
     /// `none`.
     #[arg(long, value_enum)]
     pub zeta_input: Option<ZetaInputArg>,
+    /// The states' one-hot columns: `per-state` (one each) or `per-element` (one per design
+    /// element's states, one shared by the rest, which the environment's own features tell
+    /// apart: θ no longer grows with the states).
+    #[arg(long, value_enum)]
+    pub state_onehot: Option<StateOnehotArg>,
     /// Critic learning rate.
     #[arg(long)]
     pub critic_lr: Option<f64>,
@@ -202,6 +207,15 @@ pub enum ZetaInputArg {
     Routed,
 }
 
+/// `--state-onehot`.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum StateOnehotArg {
+    /// One column per state.
+    PerState,
+    /// One column per design element's states and one shared by the rest.
+    PerElement,
+}
+
 /// `--zeta-optimizer`.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum ZetaOptimizerArg {
@@ -266,6 +280,12 @@ impl TrainArgs {
                 ZetaInputArg::Routed => ZetaInput::Routed,
             };
         }
+        if let Some(v) = self.state_onehot {
+            c.state_onehot = match v {
+                StateOnehotArg::PerState => StateOnehot::PerState,
+                StateOnehotArg::PerElement => StateOnehot::PerElement,
+            };
+        }
         if let Some(v) = self.zeta_optimizer {
             c.zeta_optimizer = match v {
                 ZetaOptimizerArg::Sgd => ZetaOptimizer::Sgd,
@@ -296,6 +316,7 @@ impl TrainArgs {
             c.zeta0 = parse_zeta0(z, &env)?;
         }
         c.validate()?;
+        c.validate_for(env.env.feature_map().as_deref())?;
         let spec = RunSpec::new(&env, self.seed, c);
         // ζ₀ is checked now (inside the bounds, an `env` design that exists), not by the workers.
         envpg_ac::zeta0::initial_design(env.sampler(), &spec.config.zeta0, spec.seed)

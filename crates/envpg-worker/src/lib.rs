@@ -214,7 +214,7 @@ where
     }
     // The settings in absolute units, as the learner resolves them.
     let ac = &spec.config.resolve(net);
-    let features = Features::new(net, cfg.env.env.feature_map(), ac.zeta_input);
+    let features = Features::with_state_onehot(net, cfg.env.env.feature_map(), ac.zeta_input, ac.state_onehot);
     let mlp_spec = MlpSpec { onehot: features.onehot(), dense: features.dense_dim(), hidden: ac.hidden.clone() };
     // The shape only: parameters come from the learner.
     let actor = Mlp::<f32>::new(mlp_spec, &mut Streams::new(0).stream(envpg_core::Purpose::Init, 0, 0), true);

@@ -1,0 +1,55 @@
+#!/bin/bash
+# Algorithm 1 (model-free, `envpg-launch --workers 2 --seed 1`) on the generated UAV instance
+# with 10,000 users and 20 UAVs of results/oracle-scale (instance seed 1): the default preset
+# `uav`, `uav-large`, and `uav-large` with four times the episodes, against the best design
+# known there. Writes alg1-10k-*.json (result files: `envpg evaluate FILE` recomputes each J)
+# and table-10k.md; result files already there are kept. Run from the repository root:
+# bash results/alg1-scale/run-10k.sh (≈ 22 min on 2 cores).
+set -euo pipefail
+out=results/alg1-scale
+cargo build --release --quiet --bin envpg --bin envpg-launch
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+name=u10000-m20-s1
+./target/release/envpg instance generate --users 10000 --uavs 20 --clusters 20 --seed 1 --out "$tmp/$name.json" >/dev/null
+run() { # FILE ARGS…
+    local file=$1
+    shift
+    [ -f "$file" ] && return
+    ENVPG_RUNS_DIR="$tmp/runs" ./target/release/envpg-launch --instance "$tmp/$name.json" --workers 2 --seed 1 \
+        --quiet --out "$file" "$@"
+}
+run "$out/alg1-10k-uav.json" --preset uav
+run "$out/alg1-10k-uav-large.json" --preset uav-large
+run "$out/alg1-10k-uav-large-e128.json" --preset uav-large --episodes 128 --explore-episodes 64
+python3 - "$out" "$name" <<'PY'
+import glob, json, sys
+out, name = sys.argv[1:]
+best = min(json.load(open(f))["J"] for f in glob.glob(f"results/oracle-scale/*-{name}.json"))
+with open(f"{out}/table-10k.md", "w") as f:
+    f.write("# Algorithm 1 at 10,000 users against the best design known\n\n")
+    f.write("Generated instance `envpg instance generate --users 10000 --uavs 20 --clusters 20 --seed 1`, "
+            "`envpg-launch --instance FILE --workers 2 --seed 1 --preset P [settings]` (model-free, with the ζ polish); "
+            f"*best known* {best:.6f} from [oracle-scale](../oracle-scale/table.md). *alone*: Algorithm 1 before the "
+            "polish. Command: `bash results/alg1-scale/run-10k.sh`.\n\n")
+    f.write("| preset | settings | J | vs best known | alone vs best known | wall | transitions |\n|---|---|---|---|---|---|---|\n")
+    for file, preset, settings in ((f"{out}/alg1-10k-uav.json", "uav", "—"),
+                                   (f"{out}/alg1-10k-uav-large.json", "uav-large", "—"),
+                                   (f"{out}/alg1-10k-uav-large-e128.json", "uav-large",
+                                    "`--episodes 128 --explore-episodes 64`")):
+        r = json.load(open(file))
+        before = ((r.get("details") or {}).get("polish") or {}).get("J_before")
+        alone = f"{100 * (before / best - 1):+.2f}%" if before else "—"
+        f.write(f"| `{preset}` | {settings} | {r['J']:.6f} | {100 * (r['J'] / best - 1):+.2f}% | {alone} | "
+                f"{r['seconds']:.0f} s | {r['details']['transitions']} |\n")
+print(open(f"{out}/table-10k.md").read())
+PY
+# Committed result files keep what recomputing J needs: history, policy_soft dropped, compact JSON.
+python3 - "$out" <<'PY'
+import glob, json, sys
+for path in glob.glob(f"{sys.argv[1]}/alg1-10k-*.json"):
+    r = json.load(open(path))
+    for key in ("history", "policy_soft"):
+        r.pop(key, None)
+    json.dump(r, open(path, "w"), separators=(",", ":"))
+PY
