@@ -855,7 +855,13 @@ impl Learner {
             z.clear();
             z.extend(r.clone().map(|j| logits[j] - (q[j] as f64 / self.alpha) as f32));
             target.resize(m, 0.0);
-            softmax(&z, &mut target);
+            if z.iter().all(|v| v.is_finite()) {
+                softmax(&z, &mut target);
+            } else {
+                // Q/α is beyond f32's range once the loop back-off has cooled α to ~1e-37 (or
+                // to 0): the Gibbs policy is then its α → 0 limit.
+                greedy(&q[r.clone()], &mut target);
+            }
             for (j, col) in r.clone().enumerate() {
                 dlogit[col] = ((pi[j] - target[j]) / n) as f32;
                 if target[j] > 0.0 {
@@ -1048,6 +1054,15 @@ fn add_input_gradient(
     }
 }
 
+/// The α → 0 limit of the Gibbs policy `exp(−Q/α)`: uniform over the actions of least Q.
+fn greedy(q: &[f32], out: &mut [f64]) {
+    let least = q.iter().fold(f32::INFINITY, |m, &v| m.min(v));
+    let ties = q.iter().filter(|&&v| v == least).count() as f64;
+    for (o, &v) in out.iter_mut().zip(q) {
+        *o = if v == least { 1.0 / ties } else { 0.0 };
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1077,5 +1092,27 @@ mod tests {
         assert!(separate.iter().all(|l| l.is_finite() && *l <= 0.0));
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&separate), bits(&shared));
+    }
+
+    #[test]
+    fn a_temperature_cooled_below_f32s_range_fits_the_greedy_policy_instead_of_diverging() {
+        let config = AcConfig::bundled("uav").expect("bundled preset");
+        let registry = envpg_envs::registry();
+        let env = registry.load("uav271", &[]).expect("bundled instance");
+        let spec = RunSpec::new(&env, 3, config.clone());
+        let (_, mut learner) = spec.start_on(&env).expect("valid spec");
+        let streams = envpg_core::Streams::new(spec.seed);
+        advance(env.sampler(), &mut learner, &config, &streams, 2).expect("valid batches");
+        // What ~410 looping iterations of the ×0.8 back-off leave of α = 1: Q/α (Q ≈ 10) is
+        // beyond f32's range.
+        learner.alpha = 1e-38;
+        assert!((10.0 / learner.alpha) as f32 == f32::INFINITY);
+        advance(env.sampler(), &mut learner, &config, &streams, 3).expect("no divergence");
+        assert!(learner.actor.mlp.params().iter().all(|p| p.is_finite()));
+        assert!(learner.critic.mlp.params().iter().all(|p| p.is_finite()));
+        // And in its limit α = 0 (the back-off's f64 underflow).
+        learner.alpha = 0.0;
+        advance(env.sampler(), &mut learner, &config, &streams, 2).expect("no divergence at α = 0");
+        assert!(learner.actor.mlp.params().iter().all(|p| p.is_finite()));
     }
 }
