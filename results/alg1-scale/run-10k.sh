@@ -1,10 +1,10 @@
 #!/bin/bash
 # Algorithm 1 (model-free, `envpg-launch --workers 2 --seed 1`) on the generated UAV instance
 # with 10,000 users and 20 UAVs of results/oracle-scale (instance seed 1): the default preset
-# `uav`, `uav-large`, and `uav-large` with four times the episodes, against the best design
-# known there. Writes alg1-10k-*.json (result files: `envpg evaluate FILE` recomputes each J)
-# and table-10k.md; result files already there are kept. Run from the repository root:
-# bash results/alg1-scale/run-10k.sh (≈ 22 min on 2 cores).
+# `uav`, `uav-large`, and `uav-large` with four times the episodes or three times the
+# iterations, against the best design known there. Writes alg1-10k-*.json (result files:
+# `envpg evaluate FILE` recomputes each J) and table-10k.md; result files already there are
+# kept. Run from the repository root: bash results/alg1-scale/run-10k.sh (≈ 33 min on 2 cores).
 set -euo pipefail
 out=results/alg1-scale
 cargo build --release --quiet --bin envpg --bin envpg-launch
@@ -22,6 +22,7 @@ run() { # FILE ARGS…
 run "$out/alg1-10k-uav.json" --preset uav
 run "$out/alg1-10k-uav-large.json" --preset uav-large
 run "$out/alg1-10k-uav-large-e128.json" --preset uav-large --episodes 128 --explore-episodes 64
+run "$out/alg1-10k-uav-large-i6000.json" --preset uav-large --iterations 6000
 python3 - "$out" "$name" <<'PY'
 import glob, json, sys
 out, name = sys.argv[1:]
@@ -36,7 +37,8 @@ with open(f"{out}/table-10k.md", "w") as f:
     for file, preset, settings in ((f"{out}/alg1-10k-uav.json", "uav", "—"),
                                    (f"{out}/alg1-10k-uav-large.json", "uav-large", "—"),
                                    (f"{out}/alg1-10k-uav-large-e128.json", "uav-large",
-                                    "`--episodes 128 --explore-episodes 64`")):
+                                    "`--episodes 128 --explore-episodes 64`"),
+                                   (f"{out}/alg1-10k-uav-large-i6000.json", "uav-large", "`--iterations 6000`")):
         r = json.load(open(file))
         before = ((r.get("details") or {}).get("polish") or {}).get("J_before")
         alone = f"{100 * (before / best - 1):+.2f}%" if before else "—"
