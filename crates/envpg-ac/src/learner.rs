@@ -1069,15 +1069,21 @@ mod tests {
     use crate::rollout::run_iteration;
     use crate::trainer::{RunSpec, advance};
 
-    #[test]
-    fn the_shared_actor_pass_gives_the_entropy_terms_bit_for_bit() {
+    /// A learner on uav271 with the `uav` preset (seed 3) after two iterations, with what
+    /// advancing it further needs.
+    fn uav271_after_two_iterations() -> (envpg_core::LoadedEnv, AcConfig, envpg_core::Streams, Learner) {
         let config = AcConfig::bundled("uav").expect("bundled preset");
-        let registry = envpg_envs::registry();
-        let env = registry.load("uav271", &[]).expect("bundled instance");
+        let env = envpg_envs::registry().load("uav271", &[]).expect("bundled instance");
         let spec = RunSpec::new(&env, 3, config.clone());
         let (_, mut learner) = spec.start_on(&env).expect("valid spec");
         let streams = envpg_core::Streams::new(spec.seed);
         advance(env.sampler(), &mut learner, &config, &streams, 2).expect("valid batches");
+        (env, config, streams, learner)
+    }
+
+    #[test]
+    fn the_shared_actor_pass_gives_the_entropy_terms_bit_for_bit() {
+        let (env, config, streams, mut learner) = uav271_after_two_iterations();
         let mut table = learner.policy_table();
         let zeta = learner.zeta().to_vec();
         let sets = learner.action_sets().clone();
@@ -1096,13 +1102,7 @@ mod tests {
 
     #[test]
     fn a_temperature_cooled_below_f32s_range_fits_the_greedy_policy_instead_of_diverging() {
-        let config = AcConfig::bundled("uav").expect("bundled preset");
-        let registry = envpg_envs::registry();
-        let env = registry.load("uav271", &[]).expect("bundled instance");
-        let spec = RunSpec::new(&env, 3, config.clone());
-        let (_, mut learner) = spec.start_on(&env).expect("valid spec");
-        let streams = envpg_core::Streams::new(spec.seed);
-        advance(env.sampler(), &mut learner, &config, &streams, 2).expect("valid batches");
+        let (env, config, streams, mut learner) = uav271_after_two_iterations();
         // What ~410 looping iterations of the ×0.8 back-off leave of α = 1: Q/α (Q ≈ 10) is
         // beyond f32's range.
         learner.alpha = 1e-38;
