@@ -72,8 +72,8 @@ pub struct Features {
     n_states: usize,
     n_actions: usize,
     d: usize,
-    onehot_state: bool,
-    state_onehot: StateOnehot,
+    /// The states' one-hot columns; `None` where the provider drops the one-hot state.
+    state_onehot: Option<StateOnehot>,
     onehot_action: bool,
     provider: Option<Arc<dyn FeatureMap>>,
     /// Dense features of the provider (before the ζ-block).
@@ -133,8 +133,7 @@ impl Features {
             n_states: n,
             n_actions: env.n_actions(),
             d,
-            onehot_state,
-            state_onehot,
+            state_onehot: onehot_state.then_some(state_onehot),
             onehot_action,
             provider,
             base,
@@ -146,11 +145,10 @@ impl Features {
     /// Sizes of the one-hot groups (states and/or actions).
     pub fn onehot(&self) -> Vec<usize> {
         let mut g = Vec::with_capacity(2);
-        if self.onehot_state {
-            g.push(match self.state_onehot {
-                StateOnehot::PerState => self.n_states,
-                StateOnehot::PerElement => self.n_elements + 1,
-            });
+        match self.state_onehot {
+            Some(StateOnehot::PerState) => g.push(self.n_states),
+            Some(StateOnehot::PerElement) => g.push(self.n_elements + 1),
+            None => {}
         }
         if self.onehot_action {
             g.push(self.n_actions);
@@ -161,11 +159,10 @@ impl Features {
     /// Appends the one-hot indices of `(s, a)` (one per group of [`Features::onehot`]).
     #[inline]
     pub fn push_onehot(&self, s: usize, a: usize, out: &mut Vec<u32>) {
-        if self.onehot_state {
-            out.push(match self.state_onehot {
-                StateOnehot::PerState => s as u32,
-                StateOnehot::PerElement => self.source[s],
-            });
+        match self.state_onehot {
+            Some(StateOnehot::PerState) => out.push(s as u32),
+            Some(StateOnehot::PerElement) => out.push(self.source[s]),
+            None => {}
         }
         if self.onehot_action {
             out.push(a as u32);
