@@ -205,13 +205,14 @@ impl HopNetwork {
         let deviates = self.deviates(s);
         if !deviates {
             // Every hop reaches its target: no off-target kernel, so no geometry scratch.
+            // Whole-slice extends: one capacity check per state, not per outcome.
             let xs = self.position(s, zeta);
-            for &t in self.targets(s) {
-                next.push(t);
-                prob.push(1.0);
-                cost.push(dist2(self.position(t, zeta), xs));
-                ends.push(next.len());
-            }
+            let targets = self.targets(s);
+            let first = next.len();
+            next.extend_from_slice(targets);
+            prob.extend(std::iter::repeat_n(1.0, targets.len()));
+            cost.extend(targets.iter().map(|&t| dist2(self.position(t, zeta), xs)));
+            ends.extend(first + 1..=next.len());
             return;
         }
         with_geometry(self, s, zeta, |g| {

@@ -28,17 +28,17 @@ pub fn accumulate_local<M: ModelMdp + ?Sized>(
     u: &[f64],
     grad: &mut [f64],
 ) {
-    accumulate_with(mdp, zeta, snap, grad, |sa, o| (w[sa], u[o]));
+    accumulate_with(mdp, zeta, snap, grad, |_, sa, o| (w[sa], u[o]));
 }
 
-/// [`accumulate_local`] with `(W_sa, U_o)` supplied per outcome by `coef(sa, o)`, using one
+/// [`accumulate_local`] with `(W_sa, U_o)` supplied per outcome by `coef(s, sa, o)`, using one
 /// state-sized scratch instead of whole-model coefficient arrays.
 fn accumulate_with<M: ModelMdp + ?Sized>(
     mdp: &M,
     zeta: &[f64],
     snap: &Snapshot,
     grad: &mut [f64],
-    coef: impl Fn(usize, usize) -> (f64, f64),
+    coef: impl Fn(usize, usize, usize) -> (f64, f64),
 ) {
     let mut cp = Vec::new();
     let mut cc = Vec::new();
@@ -50,17 +50,14 @@ fn accumulate_with<M: ModelMdp + ?Sized>(
         let (lo, hi) = (snap.out_start[pairs.start], snap.out_start[pairs.end]);
         cp.clear();
         cc.clear();
-        let mut any = false;
         for sa in pairs {
             for o in snap.outs(sa) {
-                let (w, u) = coef(sa, o);
-                let (p, c) = (w * snap.cost[o] + snap.gamma * u, w * snap.prob[o]);
-                any |= p != 0.0 || c != 0.0;
-                cp.push(p);
-                cc.push(c);
+                let (w, u) = coef(s, sa, o);
+                cp.push(w * snap.cost[o] + snap.gamma * u);
+                cc.push(w * snap.prob[o]);
             }
         }
-        if any {
+        if cp.iter().chain(&cc).any(|&x| x != 0.0) {
             mdp.accumulate_state_grad(s, zeta, &snap.prob[lo..hi], &cp, &cc, grad);
         }
     }
@@ -87,10 +84,9 @@ fn policy_fixed_gradient<M: ModelMdp + ?Sized>(
     v: &[f64],
     rho: &[f64],
 ) -> Vec<f64> {
-    let states = snap.pair_states();
     let mut grad = vec![0.0; zeta.len()];
-    accumulate_with(mdp, zeta, snap, &mut grad, |sa, o| {
-        let w = rho[states[sa]] * pi[sa];
+    accumulate_with(mdp, zeta, snap, &mut grad, |s, sa, o| {
+        let w = rho[s] * pi[sa];
         (w, w * v[snap.next[o]])
     });
     grad

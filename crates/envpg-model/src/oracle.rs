@@ -371,8 +371,16 @@ pub fn anneal<M: ModelMdp + ?Sized>(
     if cfg.polish {
         alphas.push(0.0);
     }
+    let horizon = Form::Horizon(cfg.horizon);
+    // One objective per form for the whole restart: each keeps its last snapshot, whose
+    // component decomposition and stages the next level's snapshots reuse.
+    let mut ssp_obj = Objective::new(model, 0.0, Form::Ssp);
+    let mut hor_obj = Objective::new(model, 0.0, horizon);
+    ssp_obj.gradient = cfg.gradient;
+    hor_obj.gradient = cfg.gradient;
     for &alpha in &alphas {
-        let horizon = Form::Horizon(cfg.horizon);
+        ssp_obj.alpha = alpha;
+        hor_obj.alpha = alpha;
         if alpha > alpha_switch && cfg.perturb > 0.0 {
             for z in zeta.iter_mut() {
                 *z += noise.sample(&mut rng);
@@ -384,8 +392,8 @@ pub fn anneal<M: ModelMdp + ?Sized>(
         // explodes, luring ζ into a trap; where the soft SSP values exist they agree with the
         // horizon form to rounding at low α. Use SSP only where it exists and agrees.
         if form == Form::Ssp && alpha > 0.0 {
-            let ssp = Objective::new(model, alpha, Form::Ssp).value(&zeta, warm.as_deref());
-            let hor = Objective::new(model, alpha, horizon).value(&zeta, None);
+            let ssp = ssp_obj.value(&zeta, warm.as_deref());
+            let hor = hor_obj.value(&zeta, None);
             let agree = match (&ssp, &hor) {
                 (Ok((a, _)), Ok((b, _))) => (a - b).abs() <= 1e-6 * (1.0 + b.abs()),
                 _ => false,
@@ -395,8 +403,7 @@ pub fn anneal<M: ModelMdp + ?Sized>(
                 fallbacks += 1;
             }
         }
-        let mut obj = Objective::new(model, alpha, form);
-        obj.gradient = cfg.gradient;
+        let obj = if form == Form::Ssp { &ssp_obj } else { &hor_obj };
         let mut last_warm = warm.clone();
         let res = minimize_in(&zeta, bounds, &lb, |z| match obj.value_grad(z, last_warm.as_deref()) {
             Ok(e) => {

@@ -87,14 +87,15 @@ impl Snapshot {
             ends.clear();
             let first = snap.next.len();
             mdp.state_outcomes(s, zeta, &mut snap.next, &mut snap.prob, &mut snap.cost, &mut ends);
+            let actions = mdp.valid_actions(s);
+            debug_assert_eq!(ends.len(), actions.len());
+            snap.sa_action.extend_from_slice(actions);
+            snap.out_start.extend_from_slice(&ends);
             let mut lo = first;
-            for (&a, &hi) in mdp.valid_actions(s).iter().zip(&ends) {
-                snap.sa_action.push(a);
+            for &hi in &ends {
                 snap.rbar.push((lo..hi).map(|o| snap.prob[o] * snap.cost[o]).sum());
-                snap.out_start.push(hi);
                 lo = hi;
             }
-            debug_assert_eq!(ends.len(), mdp.valid_actions(s).len());
         }
         snap.sa_start.push(snap.sa_action.len());
         let same_support = |l: &Snapshot| {
