@@ -159,3 +159,34 @@ fn solve_horizon_retry(
         r => r,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The oracle keeps one objective per form across a restart's levels: one that evaluated
+    /// another design at another temperature first (and reuses that snapshot's components and
+    /// stages) gives the bits of a fresh one.
+    #[test]
+    fn an_objective_reused_across_designs_and_temperatures_gives_a_fresh_ones_bits() {
+        for kappa in [1.0, 0.85] {
+            let env = envpg_envs::registry().load("uav271", &[("kappa".into(), kappa)]).unwrap();
+            let model = env.model().unwrap();
+            let zeta = model.heuristic_design().unwrap();
+            let other: Vec<f64> = zeta.iter().map(|z| z + 0.3).collect();
+            for form in [Form::Ssp, Form::Horizon(model.oracle_hints().horizon)] {
+                let mut reused = Objective::new(model, 0.5, form);
+                reused.value_grad(&other, None).unwrap();
+                reused.alpha = 0.3;
+                let a = reused.value_grad(&zeta, None).unwrap();
+                let b = Objective::new(model, 0.3, form).value_grad(&zeta, None).unwrap();
+                let bits = |e: &Evaluated| {
+                    let mut v = vec![e.value.to_bits()];
+                    v.extend(e.grad.iter().chain(&e.warm).map(|x| x.to_bits()));
+                    v
+                };
+                assert_eq!(bits(&a), bits(&b), "kappa {kappa}, {form:?}");
+            }
+        }
+    }
+}
