@@ -286,7 +286,7 @@ fn push_out(snap: &Snapshot, s: usize, pi: &[f64], mass: f64, local: &Local, inf
 /// The dense initial distribution μ of `snap`.
 pub fn mu_dense(snap: &Snapshot) -> Vec<f64> {
     let mut mu = vec![0.0; snap.n_states];
-    for &(s, p) in &snap.mu {
+    for &(s, p) in snap.mu.iter() {
         mu[s] += p;
     }
     mu

@@ -85,7 +85,7 @@ impl Stages {
 pub fn reachable(snap: &Snapshot, h: usize) -> Vec<Vec<usize>> {
     let mut mark = vec![usize::MAX; snap.n_states];
     let mut cur: Vec<usize> = Vec::new();
-    for &(s, p) in &snap.mu {
+    for &(s, p) in snap.mu.iter() {
         if p > 0.0 && !snap.terminal[s] && mark[s] != 0 {
             mark[s] = 0;
             cur.push(s);

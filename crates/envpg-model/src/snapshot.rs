@@ -19,13 +19,13 @@ pub struct Snapshot {
     /// Discount factor.
     pub gamma: f64,
     /// Initial distribution μ as `(state, prob)`.
-    pub mu: Vec<(usize, f64)>,
+    pub mu: Arc<Vec<(usize, f64)>>,
     /// Terminal flags.
-    pub terminal: Vec<bool>,
+    pub terminal: Arc<Vec<bool>>,
     /// `sa_start[s]..sa_start[s+1]` are the state–action pairs of `s`.
-    pub sa_start: Vec<usize>,
+    pub sa_start: Arc<Vec<usize>>,
     /// Global action of each state–action pair.
-    pub sa_action: Vec<usize>,
+    pub sa_action: Arc<Vec<usize>>,
     /// `out_start[sa]..out_start[sa+1]` are the outcomes of pair `sa`.
     pub out_start: Vec<usize>,
     /// Successor state of each outcome.
@@ -63,33 +63,44 @@ impl Snapshot {
     /// nearby designs).
     pub fn build_like<M: ModelMdp + ?Sized>(mdp: &M, zeta: &[f64], like: Option<&Snapshot>) -> Self {
         let n = mdp.n_states();
+        // μ, the terminal states and the valid actions do not depend on ζ: share them.
+        let (mu, terminal, sa_start, sa_action) = match like {
+            Some(l) => (Arc::clone(&l.mu), Arc::clone(&l.terminal), Arc::clone(&l.sa_start), Arc::clone(&l.sa_action)),
+            None => {
+                let mut sa_start = Vec::with_capacity(n + 1);
+                let mut sa_action = Vec::new();
+                for s in 0..n {
+                    sa_start.push(sa_action.len());
+                    sa_action.extend_from_slice(mdp.valid_actions(s));
+                }
+                sa_start.push(sa_action.len());
+                let terminal = (0..n).map(|s| mdp.is_terminal(s)).collect();
+                (Arc::new(mdp.initial_distribution()), Arc::new(terminal), Arc::new(sa_start), Arc::new(sa_action))
+            }
+        };
         let mut snap = Snapshot {
             n_states: n,
             n_actions: mdp.n_actions(),
             gamma: mdp.gamma(),
-            // μ and the terminal states do not depend on ζ.
-            mu: like.map_or_else(|| mdp.initial_distribution(), |l| l.mu.clone()),
-            terminal: like.map_or_else(|| (0..n).map(|s| mdp.is_terminal(s)).collect(), |l| l.terminal.clone()),
-            sa_start: Vec::with_capacity(n + 1),
-            sa_action: Vec::with_capacity(like.map_or(0, |l| l.sa_action.len())),
+            mu,
+            terminal,
+            sa_start,
+            sa_action,
             out_start: Vec::with_capacity(like.map_or(1, |l| l.out_start.len())),
             next: Vec::with_capacity(like.map_or(0, |l| l.next.len())),
             prob: Vec::with_capacity(like.map_or(0, |l| l.next.len())),
             cost: Vec::with_capacity(like.map_or(0, |l| l.next.len())),
-            rbar: Vec::with_capacity(like.map_or(0, |l| l.sa_action.len())),
+            rbar: Vec::with_capacity(like.map_or(0, |l| l.rbar.len())),
             sccs: Arc::new(Vec::new()),
             stages: Default::default(),
         };
         snap.out_start.push(0);
         let mut ends = Vec::new();
         for s in 0..n {
-            snap.sa_start.push(snap.sa_action.len());
             ends.clear();
             let first = snap.next.len();
             mdp.state_outcomes(s, zeta, &mut snap.next, &mut snap.prob, &mut snap.cost, &mut ends);
-            let actions = mdp.valid_actions(s);
-            debug_assert_eq!(ends.len(), actions.len());
-            snap.sa_action.extend_from_slice(actions);
+            debug_assert_eq!(ends.len(), snap.sa_start[s + 1] - snap.sa_start[s]);
             snap.out_start.extend_from_slice(&ends);
             let mut lo = first;
             for &hi in &ends {
@@ -97,7 +108,6 @@ impl Snapshot {
                 lo = hi;
             }
         }
-        snap.sa_start.push(snap.sa_action.len());
         let same_support = |l: &Snapshot| {
             l.out_start == snap.out_start
                 && l.next == snap.next
