@@ -26,6 +26,8 @@
 //! and faster anneals (`cooling²`, `cooling³`, `cooling⁴`) alternate — and otherwise mixes one
 //! anneal restart with warm restarts from random ζ₀; the best restart is kept.
 
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use envpg_core::policy::policy_rows;
@@ -301,22 +303,27 @@ pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result
         .collect();
     let deterministic = deterministic_at(model, &zeta0s[0]);
     let threads = cfg.threads.clamp(1, cfg.restarts);
-    let mut results: Vec<Option<Result<Restart, ModelError>>> = vec![None; cfg.restarts];
+    // Restarts cost from a fraction to several times one another (a slow anneal, then warm
+    // starts and faster anneals), so each thread takes the next restart not yet started rather
+    // than a fixed share. A restart depends only on its index, so results do not depend on
+    // which thread ran it.
+    let next = AtomicUsize::new(0);
+    let results: Vec<OnceLock<Result<Restart, ModelError>>> = (0..cfg.restarts).map(|_| OnceLock::new()).collect();
     std::thread::scope(|scope| {
-        let chunks: Vec<_> = results.chunks_mut(cfg.restarts.div_ceil(threads)).enumerate().collect();
-        let per = cfg.restarts.div_ceil(threads);
-        for (c, chunk) in chunks {
-            let zeta0s = &zeta0s;
-            scope.spawn(move || {
-                for (i, slot) in chunk.iter_mut().enumerate() {
-                    let r = c * per + i;
-                    *slot = Some(anneal(model, cfg, r, &zeta0s[r], &streams, deterministic));
+        for _ in 0..threads {
+            scope.spawn(|| {
+                loop {
+                    let r = next.fetch_add(1, Ordering::Relaxed);
+                    if r >= cfg.restarts {
+                        break;
+                    }
+                    let _ = results[r].set(anneal(model, cfg, r, &zeta0s[r], &streams, deterministic));
                 }
             });
         }
     });
     let restarts: Vec<Restart> =
-        results.into_iter().map(|r| r.expect("every restart ran")).collect::<Result<_, _>>()?;
+        results.into_iter().map(|r| r.into_inner().expect("every restart ran")).collect::<Result<_, _>>()?;
     let best = (0..restarts.len())
         .min_by(|&a, &b| restarts[a].j.total_cmp(&restarts[b].j).then(a.cmp(&b)))
         .expect("at least one restart");
@@ -546,5 +553,22 @@ mod tests {
         assert!(portfolio.restarts[portfolio.best].j <= anneal.restarts[0].j);
         assert_eq!(portfolio.restarts[1].kind, RestartKind::Warm);
         assert_eq!(portfolio.restarts[2].cooling, portfolio.restarts[0].cooling.powi(2));
+    }
+
+    #[test]
+    fn restarts_end_the_same_whatever_the_thread_count() {
+        // Threads take restarts as they free up, so which thread runs which restart varies;
+        // each restart's design and J must not.
+        let env = flpo();
+        let model = env.model().unwrap();
+        let run = |threads| run_oracle(model, &OracleConfig { restarts: 5, threads, ..OracleConfig::for_env(model) });
+        let one = run(1).unwrap();
+        for threads in [2, 3] {
+            let many = run(threads).unwrap();
+            assert_eq!(many.best, one.best);
+            for (a, b) in one.restarts.iter().zip(&many.restarts) {
+                assert_eq!((a.index, &a.zeta, a.j.to_bits()), (b.index, &b.zeta, b.j.to_bits()), "{threads} threads");
+            }
+        }
     }
 }
