@@ -41,9 +41,12 @@ for path in sorted(glob.glob(f"{out}/oracle-*.json"), key=lambda p: (len(p), p))
     best = rs[d["best_restart"]]
     others = {p: json.load(open(p))["J"] for p in glob.glob(f"{tmp}/{name}-seed*.json")}
     known = min([r["J"]] + list(others.values()))
-    better = [p for p, j in others.items() if j == known and j < r["J"]]
+    # Better beyond rounding: another seed reaching the same design is not a better one.
+    better = [p for p, j in others.items() if j == known and j < r["J"] * (1 - 1e-9)]
     if better:  # keep the best design known, so that it can be recomputed too
         os.replace(sorted(better)[0], f"{out}/best-known-{name}.json")
+    else:
+        known = r["J"]
     rows.append((name, rs[0]["J"], r["J"], known, best, d["fraction_best"], r["seconds"],
                  sum(x["seconds"] for x in rs)))
 with open(f"{out}/table.md", "w") as f:
