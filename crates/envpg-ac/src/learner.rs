@@ -767,7 +767,7 @@ impl Learner {
             }
         }
         let v = self.target_values(&next_states, table);
-        let mut cols = Columns::default();
+        let mut cols = Columns::with_capacity(&self.features, idx.len());
         let mut y = Vec::with_capacity(idx.len());
         for &i in &idx {
             let s2 = f.s2[i];
@@ -810,7 +810,8 @@ impl Learner {
     fn actor_pass(&mut self, f: &Flat, step: usize) -> ActorPass {
         let d = self.zeta.len();
         let idx = self.minibatch(f.s.len(), (self.cfg.critic_steps + step) as u64);
-        let mut cols = Columns::default();
+        let n = idx.iter().map(|&i| self.sets.of(f.s[i]).len()).sum();
+        let mut cols = Columns::with_capacity(&self.features, n);
         for &i in &idx {
             for &a in self.sets.of(f.s[i]) {
                 cols.push(&self.features, f.s[i], a, &f.zeta[i * d..(i + 1) * d], i as u32);
@@ -925,7 +926,7 @@ impl Learner {
     /// `Σ w · ∇ζ Q_φ(s, a, ζ_k)` over the given `(s, a, w)`: weighted by exact visits it is the
     /// critic's version of the fixed-policy gradient, free of sampling noise (the critic audit).
     pub fn critic_zeta_gradient(&mut self, pairs: &[(usize, usize, f64)]) -> Vec<f64> {
-        let mut cols = Columns::default();
+        let mut cols = Columns::with_capacity(&self.features, pairs.len());
         for &(s, a, _) in pairs {
             cols.push(&self.features, s, a, &self.zeta, 0);
         }
@@ -965,7 +966,8 @@ fn on_policy_columns(
     zeta: &[f64],
     gamma: f64,
 ) -> (Columns, Vec<Taken>) {
-    let mut cols = Columns::default();
+    let n = on.iter().flat_map(|ep| &ep.s).map(|&s| sets.of(s as usize).len()).sum();
+    let mut cols = Columns::with_capacity(features, n);
     let mut taken = Vec::new();
     for ep in on {
         let mut disc = 1.0;

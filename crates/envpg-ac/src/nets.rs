@@ -80,6 +80,19 @@ pub struct Columns {
 }
 
 impl Columns {
+    /// An empty batch with room for `n` columns of `f`'s inputs. Building a batch of known
+    /// size this way never reallocates: with thousands of states a column's dense block is
+    /// kilobytes, and a growing batch would copy itself and, while copying, hold up to three
+    /// times its size.
+    pub fn with_capacity(f: &Features, n: usize) -> Self {
+        Self {
+            onehot: Vec::with_capacity(n * f.onehot().len()),
+            dense: Vec::with_capacity(n * f.dense_dim()),
+            sa: Vec::with_capacity(n),
+            zeta_id: Vec::with_capacity(n),
+            dense_dim: f.dense_dim(),
+        }
+    }
     /// Empties the batch.
     pub fn clear(&mut self) {
         self.onehot.clear();
@@ -212,5 +225,36 @@ pub fn softmax(logits: &[f32], out: &mut [f64]) {
     }
     for o in out.iter_mut() {
         *o /= z;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::features::ZetaInput;
+    use envpg_core::{Env, EnvSpec, InstanceFile};
+    use envpg_envs::uav::UavNetwork;
+
+    #[test]
+    fn a_batch_built_with_its_capacity_never_reallocates() {
+        let text = r#"{"name":"t","n_uav":3,"users":[[0,0],[2,1]],"dest":[4,3]}"#;
+        let mut file = InstanceFile::parse(text, "t").unwrap();
+        file.resolve_params(&UavNetwork::params(), &[]).unwrap();
+        let net = UavNetwork::from_instance(&file).unwrap();
+        let features = Features::new(&net, net.feature_map(), ZetaInput::Routed);
+        let sets = ActionSets::new(&net);
+        let n = sets.n_pairs();
+        let mut cols = Columns::with_capacity(&features, n);
+        let buffers = |c: &Columns| (c.dense.as_ptr(), c.dense.capacity(), c.onehot.as_ptr(), c.onehot.capacity());
+        let before = buffers(&cols);
+        let zeta = [1.0, 0.5, 2.5, 1.5, 3.0, 2.0];
+        for s in 0..sets.n_states() {
+            for &a in sets.of(s) {
+                cols.push(&features, s, a, &zeta, 0);
+            }
+        }
+        assert_eq!(cols.len(), n);
+        assert_eq!(buffers(&cols), before, "no buffer moved or grew");
+        assert_eq!((cols.dense.len(), cols.onehot.len()), (before.1, before.3), "and every reserved slot is used");
     }
 }
