@@ -28,7 +28,8 @@ const SILU: f64 = 21.0;
 /// (Gibbs-fit actor, corollary ζ-estimator, one hidden layer, a minibatch that covers the batch),
 /// counted from its shapes. A network column with `t` first-layer terms (non-zero dense inputs,
 /// one-hot columns and the bias, one multiply and one add per element each) costs `2ht + 21h +
-/// 2h` forward and `2ht + 7h` for its parameter gradient; an input gradient adds `2h·dense`;
+/// 2h` forward and `2ht + 7h` for its parameter gradient; an input gradient adds `2h·w`
+/// for the `w` values a column stores (its listed inputs, with a routed ζ-block);
 /// Adam is 14 operations per parameter and the target's Polyak average 3.
 fn update_flops(learner: &Learner, batch: &Batch, config: &AcConfig) -> [f64; 4] {
     assert_eq!(config.hidden.len(), 1, "counted for one hidden layer");
@@ -58,7 +59,7 @@ fn update_flops(learner: &Learner, batch: &Batch, config: &AcConfig) -> [f64; 4]
                 if !ep.explore {
                     // The ζ-estimate: actor and critic forward, the critic's input gradient.
                     let tk = terms(s, a, &zeta_k);
-                    on_cols += 2.0 * fwd(tk) + 5.0 * h + 2.0 * h * dense as f64;
+                    on_cols += 2.0 * fwd(tk) + 5.0 * h + 2.0 * h * features.width() as f64;
                 }
             }
             // The critic's TD step: forward and backprop of the taken pair.

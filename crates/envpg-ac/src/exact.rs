@@ -48,7 +48,7 @@ impl ParamPolicy for ActorPolicy {
         let mut di = Vec::new();
         self.net.borrow().backprop(&cols, &dout, None, Some(&mut di));
         out.iter_mut().for_each(|o| *o = 0.0);
-        let dd = cols.dense_dim();
+        let dd = cols.width();
         for (c, &(s, a)) in cols.sa.iter().enumerate() {
             self.features.chain(s as usize, a as usize, zeta, &di[c * dd..(c + 1) * dd], 1.0, out);
         }

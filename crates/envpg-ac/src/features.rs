@@ -234,16 +234,53 @@ impl Features {
         }
     }
 
-    /// Adds `weight · (∂features/∂ζ)ᵀ g` for `(s, a)` at `zeta` into `out` (len d).
+    /// Whether a column lists its dense features ([`envpg_nn::Dense::Listed`]) instead of
+    /// storing them whole: a routed block is zero outside the pair's two slots.
+    pub fn listed(&self) -> bool {
+        self.zeta_input == ZetaInput::Routed
+    }
+
+    /// Values a column stores: [`Features::dense_dim`], or when [`Features::listed`], the
+    /// environment's features and the two slots the pair writes.
+    pub fn width(&self) -> usize {
+        if self.listed() { self.base + 2 * self.d } else { self.dense_dim() }
+    }
+
+    /// Appends the column of `(s, a)` at `zeta`: [`Features::width`] values and, when
+    /// [`Features::listed`], the dense input each sits at (in increasing order).
+    pub fn push_column(&self, s: usize, a: usize, zeta: &[f64], index: &mut Vec<u32>, value: &mut Vec<f32>) {
+        let at = value.len();
+        value.resize(at + self.width(), 0.0);
+        if !self.listed() {
+            self.write(s, a, zeta, &mut value[at..]);
+            return;
+        }
+        let out = &mut value[at..];
+        if let Some(p) = &self.provider {
+            p.write(s, a, zeta, &mut out[..self.base]);
+        }
+        index.extend(0..self.base as u32);
+        for (k, slot) in self.slots(s, a).into_iter().enumerate() {
+            let first = self.base + slot * self.d;
+            index.extend((first..first + self.d).map(|i| i as u32));
+            for i in 0..self.d {
+                out[self.base + k * self.d + i] = ((zeta[i] - self.zeta_center[i]) / self.scale[i]) as f32;
+            }
+        }
+    }
+
+    /// Adds `weight · (∂features/∂ζ)ᵀ g` for `(s, a)` at `zeta` into `out` (len d), where `g`
+    /// is a gradient with respect to the column's stored values ([`Features::width`], in the
+    /// order [`Features::push_column`] writes them).
     pub fn chain(&self, s: usize, a: usize, zeta: &[f64], g: &[f32], weight: f64, out: &mut [f64]) {
         if let Some(p) = &self.provider {
             p.chain(s, a, zeta, &g[..self.base], weight, out);
         }
         let g = |i: usize| g[self.base + i] as f64 * weight;
-        if self.zeta_input == ZetaInput::Routed {
-            for slot in self.slots(s, a) {
+        if self.listed() {
+            for k in 0..2 {
                 for i in 0..self.d {
-                    out[i] += g(slot * self.d + i) / self.scale[i];
+                    out[i] += g(k * self.d + i) / self.scale[i];
                 }
             }
         } else {
@@ -278,10 +315,10 @@ mod tests {
                 }
                 f.set_center(&[0.9, 0.4, 2.4, 1.6, 3.1, 1.9]);
                 let zeta = [1.0, 0.5, 2.5, 1.5, 3.0, 2.0];
-                let w: Vec<f32> = (0..f.dense_dim()).map(|i| ((i as f32) * 0.7).cos()).collect();
+                let w: Vec<f32> = (0..f.width()).map(|i| ((i as f32) * 0.7).cos()).collect();
                 let dot = |z: &[f64], s: usize, a: usize| {
-                    let mut x = vec![0.0f32; f.dense_dim()];
-                    f.write(s, a, z, &mut x);
+                    let (mut index, mut x) = (Vec::new(), Vec::new());
+                    f.push_column(s, a, z, &mut index, &mut x);
                     x.iter().zip(&w).map(|(x, w)| *x as f64 * *w as f64).sum::<f64>()
                 };
                 for (s, a) in [(0, 1), (3, 2), (4, 3), (1, 0)] {
@@ -303,6 +340,35 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_listed_column_holds_every_non_zero_feature_at_its_place() {
+        let net = net();
+        for provider in [net.feature_map(), None] {
+            let mut f = Features::new(&net, provider, ZetaInput::Routed);
+            assert!(f.listed() && f.width() < f.dense_dim());
+            f.set_center(&[0.9, 0.4, 2.4, 1.6, 3.1, 1.9]);
+            let zeta = [1.0, 0.5, 2.5, 1.5, 3.0, 2.0];
+            let sets = crate::nets::ActionSets::new(&net);
+            for s in 0..sets.n_states() {
+                for &a in sets.of(s) {
+                    let mut whole = vec![f32::NAN; f.dense_dim()];
+                    f.write(s, a, &zeta, &mut whole);
+                    let (mut index, mut value) = (vec![7], vec![9.0]);
+                    f.push_column(s, a, &zeta, &mut index, &mut value);
+                    assert_eq!((index.len(), value.len()), (1 + f.width(), 1 + f.width()), "appended");
+                    assert!(index[1..].windows(2).all(|w| w[0] < w[1]), "increasing");
+                    let mut from_list = vec![0.0f32; f.dense_dim()];
+                    for (&i, &v) in index[1..].iter().zip(&value[1..]) {
+                        from_list[i as usize] = v;
+                    }
+                    assert_eq!(from_list, whole, "s{s} a{a}");
+                }
+            }
+        }
+        let centred = Features::new(&net, None, ZetaInput::Centered);
+        assert!(!centred.listed() && centred.width() == centred.dense_dim());
     }
 
     #[test]

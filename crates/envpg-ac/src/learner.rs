@@ -1048,7 +1048,7 @@ fn add_input_gradient(
     weight: impl Fn(usize) -> f64,
     g: &mut [f64],
 ) {
-    let dense = cols.dense_dim();
+    let dense = cols.width();
     let mut di = Vec::new();
     net.backprop(cols, dout, None, Some(&mut di));
     for (c, &(s, a)) in cols.sa.iter().enumerate() {

@@ -5,7 +5,7 @@
 //! column. Both are [`Mlp`]s in f32 over [`Features`].
 
 use envpg_core::ParamMdp;
-use envpg_nn::{Cache, Inputs, Mlp, MlpSpec};
+use envpg_nn::{Cache, Dense, Inputs, Mlp, MlpSpec};
 use rand::Rng;
 
 use crate::features::Features;
@@ -68,35 +68,49 @@ impl ActionSets {
 }
 
 /// A batch of network columns.
+///
+/// A column's dense features are stored whole, or, when the [`Features`] are
+/// [listed](Features::listed), as the few values that can be non-zero and the inputs they sit
+/// at: with thousands of states a routed column has over a thousand dense inputs, a few dozen
+/// of them non-zero.
 #[derive(Debug, Clone, Default)]
 pub struct Columns {
     onehot: Vec<u32>,
-    dense: Vec<f32>,
+    /// [`Columns::width`] values per column.
+    value: Vec<f32>,
+    /// The dense input each value sits at, when listed (else empty).
+    index: Vec<u32>,
     /// (state, action) of each column.
     pub sa: Vec<(u32, u32)>,
     /// Which ζ (index into the caller's list) each column was built at.
     pub zeta_id: Vec<u32>,
     dense_dim: usize,
+    width: usize,
+    listed: bool,
 }
 
 impl Columns {
     /// An empty batch with room for `n` columns of `f`'s inputs. Building a batch of known
-    /// size this way never reallocates: with thousands of states a column's dense block is
-    /// kilobytes, and a growing batch would copy itself and, while copying, hold up to three
-    /// times its size.
+    /// size this way never reallocates: a growing batch would copy itself and, while copying,
+    /// hold up to three times its size.
     pub fn with_capacity(f: &Features, n: usize) -> Self {
+        let listed = f.listed();
         Self {
             onehot: Vec::with_capacity(n * f.onehot().len()),
-            dense: Vec::with_capacity(n * f.dense_dim()),
+            value: Vec::with_capacity(n * f.width()),
+            index: Vec::with_capacity(if listed { n * f.width() } else { 0 }),
             sa: Vec::with_capacity(n),
             zeta_id: Vec::with_capacity(n),
             dense_dim: f.dense_dim(),
+            width: f.width(),
+            listed,
         }
     }
     /// Empties the batch.
     pub fn clear(&mut self) {
         self.onehot.clear();
-        self.dense.clear();
+        self.value.clear();
+        self.index.clear();
         self.sa.clear();
         self.zeta_id.clear();
     }
@@ -110,21 +124,28 @@ impl Columns {
     }
     /// Appends the column `(s, a, zeta)`; `zeta_id` names `zeta` for [`Columns::zeta_id`].
     pub fn push(&mut self, f: &Features, s: usize, a: usize, zeta: &[f64], zeta_id: u32) {
-        self.dense_dim = f.dense_dim();
+        if self.is_empty() {
+            (self.dense_dim, self.width, self.listed) = (f.dense_dim(), f.width(), f.listed());
+        }
+        debug_assert_eq!((self.dense_dim, self.listed), (f.dense_dim(), f.listed()), "one feature map per batch");
         f.push_onehot(s, a, &mut self.onehot);
-        let base = self.dense.len();
-        self.dense.resize(base + self.dense_dim, 0.0);
-        f.write(s, a, zeta, &mut self.dense[base..]);
+        f.push_column(s, a, zeta, &mut self.index, &mut self.value);
         self.sa.push((s as u32, a as u32));
         self.zeta_id.push(zeta_id);
     }
     /// The network inputs.
     pub fn inputs(&self) -> Inputs<'_, f32> {
-        Inputs { onehot: &self.onehot, dense: &self.dense, batch: self.sa.len() }
+        let dense = if self.listed {
+            Dense::Listed { index: &self.index, value: &self.value, per_sample: self.width }
+        } else {
+            Dense::Full(&self.value)
+        };
+        Inputs { onehot: &self.onehot, dense, batch: self.sa.len() }
     }
-    /// Dense features per column.
-    pub fn dense_dim(&self) -> usize {
-        self.dense_dim
+    /// Values stored per column: of the dense features, and of their gradient from
+    /// [`Net::backprop`] (what [`Features::chain`] takes).
+    pub fn width(&self) -> usize {
+        self.width
     }
 }
 
@@ -203,7 +224,7 @@ impl Net {
         }
         let di = dinput.map(|v| {
             v.clear();
-            v.resize(cols.len() * cols.dense_dim(), 0.0);
+            v.resize(cols.len() * cols.width(), 0.0);
             v.as_mut_slice()
         });
         if self.scale == 1.0 {
@@ -245,7 +266,16 @@ mod tests {
         let sets = ActionSets::new(&net);
         let n = sets.n_pairs();
         let mut cols = Columns::with_capacity(&features, n);
-        let buffers = |c: &Columns| (c.dense.as_ptr(), c.dense.capacity(), c.onehot.as_ptr(), c.onehot.capacity());
+        let buffers = |c: &Columns| {
+            (
+                c.value.as_ptr(),
+                c.value.capacity(),
+                c.index.as_ptr(),
+                c.index.capacity(),
+                c.onehot.as_ptr(),
+                c.onehot.capacity(),
+            )
+        };
         let before = buffers(&cols);
         let zeta = [1.0, 0.5, 2.5, 1.5, 3.0, 2.0];
         for s in 0..sets.n_states() {
@@ -255,6 +285,7 @@ mod tests {
         }
         assert_eq!(cols.len(), n);
         assert_eq!(buffers(&cols), before, "no buffer moved or grew");
-        assert_eq!((cols.dense.len(), cols.onehot.len()), (before.1, before.3), "and every reserved slot is used");
+        let used = (cols.value.len(), cols.index.len(), cols.onehot.len());
+        assert_eq!(used, (before.1, before.3, before.5), "and every reserved slot is used");
     }
 }

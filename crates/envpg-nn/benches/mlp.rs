@@ -15,7 +15,7 @@ fn bench(c: &mut Criterion) {
         let mlp = Mlp::<f32>::new(spec, &mut ChaCha12Rng::seed_from_u64(1), false);
         let onehot: Vec<u32> = (0..cols).flat_map(|i| [(i % 277) as u32, (i % 6) as u32]).collect();
         let dense: Vec<f32> = (0..cols * 17).map(|i| ((i as f32) * 0.1).sin()).collect();
-        let x = Inputs { onehot: &onehot, dense: &dense, batch: cols };
+        let x = Inputs::full(&onehot, &dense, cols);
         let name: Vec<String> = hidden.iter().map(|h| h.to_string()).collect();
         let mut g = c.benchmark_group(format!("mlp_{}", name.join("x")));
         g.throughput(Throughput::Elements(cols as u64));

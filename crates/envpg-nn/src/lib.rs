@@ -7,7 +7,8 @@
 //! ## Main types
 //! - [`Mlp`]: a multilayer perceptron whose parameters live in one flat vector (so the
 //!   optimiser, checkpoints and weight broadcasts see a single slice). The first layer takes
-//!   [`Inputs`]: one-hot groups (a column gather, not a dense multiply) plus dense features.
+//!   [`Inputs`]: one-hot groups (a column gather, not a dense multiply) plus dense features,
+//!   stored whole or, when few can be non-zero, as a list of those ([`Dense::Listed`]).
 //! - [`Cache`]: activations of a forward pass, consumed by [`Mlp::backward`], which accumulates
 //!   parameter gradients and, on request, gradients with respect to the dense inputs.
 //! - [`Adam`]: the Adam optimiser over a flat parameter slice.
@@ -25,7 +26,7 @@
 //! let spec = MlpSpec { onehot: vec![3], dense: 1, hidden: vec![8] };
 //! let mut net = Mlp::<f64>::new(spec, &mut rand_chacha::ChaCha12Rng::seed_from_u64(1), false);
 //! // Two samples, states 0 and 2 with dense inputs 0.5 and -1, both with target 1.
-//! let x = Inputs { onehot: &[0, 2], dense: &[0.5, -1.0], batch: 2 };
+//! let x = Inputs::full(&[0, 2], &[0.5, -1.0], 2);
 //! let loss = |y: &[f64]| y.iter().map(|v| 0.5 * (v - 1.0).powi(2)).sum::<f64>();
 //! let (mut cache, mut y) = (Cache::default(), [0.0; 2]);
 //! net.forward(&x, &mut cache, &mut y);
@@ -41,11 +42,13 @@
 pub mod activation;
 pub mod adam;
 mod gather;
+mod inputs;
 pub mod linear;
 pub mod mlp;
 
 pub use adam::Adam;
-pub use mlp::{Cache, Inputs, Mlp, MlpSpec};
+pub use inputs::{Dense, Inputs};
+pub use mlp::{Cache, Mlp, MlpSpec};
 
 /// Floating-point types the networks run in.
 pub trait Scalar: nalgebra::RealField + Copy + Default + Send + Sync + 'static {

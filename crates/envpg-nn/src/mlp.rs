@@ -6,7 +6,10 @@ use rand_distr::{Distribution, Uniform};
 use serde::{Deserialize, Serialize};
 
 use crate::Scalar;
-use crate::gather::{Term, accumulate, push_nonzeros};
+use crate::gather::{Term, accumulate};
+#[cfg(test)]
+use crate::inputs::mostly_zero;
+use crate::inputs::{Dense, Inputs, listed_input_gradient};
 use crate::linear::{Mat, Op, gemm};
 
 /// Shape of an [`Mlp`].
@@ -18,17 +21,6 @@ pub struct MlpSpec {
     pub dense: usize,
     /// Widths of the hidden layers.
     pub hidden: Vec<usize>,
-}
-
-/// A batch of inputs: per sample one index per one-hot group, and the dense features.
-#[derive(Debug, Clone, Copy)]
-pub struct Inputs<'a, T> {
-    /// `batch × groups` indices, sample-major; each index is local to its group.
-    pub onehot: &'a [u32],
-    /// `dense × batch`, column-major (one column per sample).
-    pub dense: &'a [T],
-    /// Batch size.
-    pub batch: usize,
 }
 
 /// Activations of a forward pass, needed by [`Mlp::backward`].
@@ -128,7 +120,7 @@ impl<T: Scalar> Mlp<T> {
 
     fn check_inputs(&self, x: &Inputs<'_, T>) {
         assert_eq!(x.onehot.len(), x.batch * self.spec.onehot.len(), "one-hot index count");
-        assert_eq!(x.dense.len(), x.batch * self.spec.dense, "dense input size");
+        x.check_dense(self.spec.dense);
     }
 
     /// Forward pass: writes one output per sample into `out` and fills `cache`.
@@ -176,12 +168,13 @@ impl<T: Scalar> Mlp<T> {
         // one matrix product for the whole batch. Then SiLU and (one hidden layer) the output dot
         // per column while the column is hot in L1.
         let dense = self.spec.dense;
-        let sparse = dense > 0 && mostly_zero(x.dense);
+        let sparse = dense > 0 && x.dense_mostly_zero(dense);
         if dense > 0 && !sparse {
             let lay = &self.layers[0];
             let w = &self.params[lay.w + h0 * self.onehot_total..lay.b];
             let wd = Mat::new(w, h0, dense);
-            gemm(T::one(), wd, Op::N, Mat::new(x.dense, dense, bsz), Op::N, T::zero(), &mut sig0, h0, bsz);
+            let xd = x.dense_full(dense);
+            gemm(T::one(), wd, Op::N, Mat::new(&xd, dense, bsz), Op::N, T::zero(), &mut sig0, h0, bsz);
         }
         let last = &self.layers[n_hidden];
         let mut terms = Vec::with_capacity(if sparse { dense } else { 0 } + self.spec.onehot.len() + 1);
@@ -268,7 +261,7 @@ impl<T: Scalar> Mlp<T> {
     /// sum the same terms in the same order; otherwise `forward` takes the dense part as one
     /// matrix product).
     pub fn eval_matches_forward(&self, x: &Inputs<'_, T>) -> bool {
-        self.spec.hidden.len() > 1 || self.spec.dense == 0 || mostly_zero(x.dense)
+        self.spec.hidden.len() > 1 || self.spec.dense == 0 || x.dense_mostly_zero(self.spec.dense)
     }
 
     /// The terms of layer 0's pre-activation of sample `s`, in the order they are added: the
@@ -280,7 +273,7 @@ impl<T: Scalar> Mlp<T> {
         terms.clear();
         let dense = self.spec.dense;
         if dense_terms {
-            push_nonzeros(&x.dense[s * dense..(s + 1) * dense], lay.w + h * self.onehot_total, h, terms);
+            x.push_dense_terms(s, dense, lay.w + h * self.onehot_total, h, terms);
         }
         terms.push((T::one(), lay.b));
         let groups = self.spec.onehot.len();
@@ -304,7 +297,8 @@ impl<T: Scalar> Mlp<T> {
 
     /// Backward pass for the upstream gradient `dout` (one per sample): adds the parameter
     /// gradient into `grad` (if given, flat, same layout as the parameters) and writes the
-    /// gradient with respect to the dense inputs into `dinput` (if given, `dense × batch`).
+    /// gradient with respect to the dense inputs into `dinput` (if given: `dense × batch`, or
+    /// for [`Dense::Listed`] inputs one entry per listed input, in their order).
     pub fn backward(
         &self,
         x: &Inputs<'_, T>,
@@ -359,7 +353,7 @@ impl<T: Scalar> Mlp<T> {
         }
         let dense = self.spec.dense;
         if let Some(di) = dinput.as_deref() {
-            assert_eq!(di.len(), dense * bsz, "input gradient buffer size");
+            assert_eq!(di.len(), x.dense_width(dense) * bsz, "input gradient buffer size");
         }
         let out = &self.layers[n_hidden];
         let h_last = out.cols;
@@ -446,21 +440,20 @@ impl<T: Scalar> Mlp<T> {
                     axpy(T::one(), &dz[s * h..(s + 1) * h], &mut gw[c * h..(c + 1) * h]);
                 }
             }
-            if dense > 0 && mostly_zero(x.dense) {
+            if dense > 0 && x.dense_mostly_zero(dense) {
                 let gwd = &mut gw[h * self.onehot_total..];
                 for s in 0..bsz {
-                    for (i, &xi) in x.dense[s * dense..(s + 1) * dense].iter().enumerate() {
-                        if xi != T::zero() {
-                            axpy(xi, &dz[s * h..(s + 1) * h], &mut gwd[i * h..(i + 1) * h]);
-                        }
-                    }
+                    x.for_each_nonzero(s, dense, |i, xi| {
+                        axpy(xi, &dz[s * h..(s + 1) * h], &mut gwd[i * h..(i + 1) * h])
+                    });
                 }
             } else if dense > 0 {
+                let xd = x.dense_full(dense);
                 gemm(
                     T::one(),
                     Mat::new(&dz, h, bsz),
                     Op::N,
-                    Mat::new(x.dense, dense, bsz),
+                    Mat::new(&xd, dense, bsz),
                     Op::T,
                     T::one(),
                     &mut gw[h * self.onehot_total..],
@@ -472,17 +465,14 @@ impl<T: Scalar> Mlp<T> {
         if let Some(di) = dinput
             && dense > 0
         {
-            gemm(T::one(), wd, Op::T, Mat::new(&dz, h, bsz), Op::N, T::zero(), di, dense, bsz);
+            match x.dense {
+                Dense::Full(_) => gemm(T::one(), wd, Op::T, Mat::new(&dz, h, bsz), Op::N, T::zero(), di, dense, bsz),
+                Dense::Listed { index, per_sample, .. } => {
+                    listed_input_gradient(wd.data, h, &dz, index, per_sample, di)
+                }
+            }
         }
     }
-}
-
-/// Whether more than three quarters of `x` are exactly zero: then the first layer skips the
-/// zero inputs instead of running a dense product (ζ-blocks routed into slots are mostly zeros;
-/// below that density the product is faster).
-#[inline(always)]
-fn mostly_zero<T: Scalar>(x: &[T]) -> bool {
-    4 * x.iter().filter(|&&v| v == T::zero()).count() > 3 * x.len()
 }
 
 /// `Σ a_i b_i`, accumulated in 8 interleaved partial sums so it vectorises (a single running
@@ -538,14 +528,14 @@ mod tests {
     /// Loss L = Σ_s w_s·f(x_s) with fixed weights, so dL/df = w.
     fn loss(m: &Mlp<f64>, onehot: &[u32], dense: &[f64], bsz: usize) -> f64 {
         let mut out = vec![0.0; bsz];
-        m.forward(&Inputs { onehot, dense, batch: bsz }, &mut Cache::default(), &mut out);
+        m.forward(&Inputs::full(onehot, dense, bsz), &mut Cache::default(), &mut out);
         out.iter().enumerate().map(|(s, o)| (s as f64 + 1.0) * o).sum()
     }
 
     /// Checks the parameter and input gradients of `m` at these inputs against central
     /// differences of [`loss`].
     fn assert_gradients_match_central_differences(m: &mut Mlp<f64>, onehot: &[u32], dense: &[f64], bsz: usize) {
-        let x = Inputs { onehot, dense, batch: bsz };
+        let x = Inputs::full(onehot, dense, bsz);
         let mut cache = Cache::default();
         let mut out = vec![0.0; bsz];
         m.forward(&x, &mut cache, &mut out);
@@ -597,8 +587,8 @@ mod tests {
             dense2[s * 12 + 8..s * 12 + 12].copy_from_slice(&dense[s * 4..s * 4 + 4]);
         }
         let (mut o1, mut o2) = (vec![0.0; bsz], vec![0.0; bsz]);
-        m.forward(&Inputs { onehot: &onehot, dense: &dense, batch: bsz }, &mut Cache::default(), &mut o1);
-        m2.forward(&Inputs { onehot: &[], dense: &dense2, batch: bsz }, &mut Cache::default(), &mut o2);
+        m.forward(&Inputs::full(&onehot, &dense, bsz), &mut Cache::default(), &mut o1);
+        m2.forward(&Inputs::full(&[], &dense2, bsz), &mut Cache::default(), &mut o2);
         for s in 0..bsz {
             assert!((o1[s] - o2[s]).abs() < 1e-12);
         }
@@ -618,7 +608,7 @@ mod tests {
                 dense[s * 10 + i] = 0.3 + 0.1 * (s + i) as f64;
             }
             assert!(mostly_zero(&dense));
-            let x = Inputs { onehot: &onehot, dense: &dense, batch: bsz };
+            let x = Inputs::full(&onehot, &dense, bsz);
             let (mut out, mut out2) = (vec![0.0; bsz], vec![0.0; bsz]);
             m.forward(&x, &mut Cache::default(), &mut out);
             m.eval(&x, &mut out2);
@@ -631,13 +621,65 @@ mod tests {
     }
 
     #[test]
+    fn listed_dense_inputs_give_the_bits_of_the_whole_inputs() {
+        // Per sample, 3 listed entries out of 12 inputs (mostly zero: the skip-zeros path) or
+        // 10 of 12 (the matrix-product path); some listed values are zero.
+        for (listed, hidden) in [(3, vec![6]), (3, vec![6, 7]), (10, vec![6]), (10, vec![5, 4])] {
+            let (dim, bsz) = (12, 5);
+            let spec = MlpSpec { onehot: vec![4], dense: dim, hidden };
+            let m = Mlp::<f32>::new(spec, &mut ChaCha12Rng::seed_from_u64(11), false);
+            let onehot: Vec<u32> = (0..bsz as u32).map(|s| s % 4).collect();
+            let (mut index, mut value, mut whole) = (Vec::new(), Vec::new(), vec![0.0f32; dim * bsz]);
+            for s in 0..bsz {
+                for k in 0..listed {
+                    let i = (s + 5 * k) % dim;
+                    let v = if (s + k) % 4 == 0 { 0.0 } else { ((s * 7 + k) as f32 * 0.61).sin() };
+                    whole[s * dim + i] = v;
+                    index.push(i as u32);
+                }
+                index[s * listed..].sort_unstable();
+                value.extend(index[s * listed..].iter().map(|&i| whole[s * dim + i as usize]));
+            }
+            let full = Inputs::full(&onehot, &whole, bsz);
+            let list = Inputs {
+                onehot: &onehot,
+                dense: Dense::Listed { index: &index, value: &value, per_sample: listed },
+                batch: bsz,
+            };
+            let run = |x: &Inputs<'_, f32>| {
+                let (mut cache, mut out, mut evals) = (Cache::default(), vec![0.0; bsz], vec![0.0; bsz]);
+                m.forward(x, &mut cache, &mut out);
+                m.eval(x, &mut evals);
+                let dout: Vec<f32> = (0..bsz).map(|s| 0.5 - s as f32).collect();
+                let mut g = vec![0.0; m.n_params()];
+                let mut di = vec![0.0; x.dense_width(dim) * bsz];
+                m.backward(x, &cache, &dout, Some(&mut g), Some(&mut di));
+                (out, evals, g, di)
+            };
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let (a, b) = (run(&full), run(&list));
+            assert_eq!(bits(&a.0), bits(&b.0), "forward, {listed} listed");
+            assert_eq!(bits(&a.1), bits(&b.1), "eval, {listed} listed");
+            assert_eq!(bits(&a.2), bits(&b.2), "parameter gradient, {listed} listed");
+            for (e, &i) in index.iter().enumerate() {
+                let s = e / listed;
+                assert_eq!(
+                    a.3[s * dim + i as usize].to_bits(),
+                    b.3[e].to_bits(),
+                    "input gradient of sample {s}, input {i}"
+                );
+            }
+        }
+    }
+
+    #[test]
     fn eval_without_cache_matches_forward() {
         for hidden in [vec![6], vec![16], vec![6, 7]] {
             let spec = MlpSpec { onehot: vec![5, 3], dense: 4, hidden };
             let m = Mlp::<f64>::new(spec, &mut ChaCha12Rng::seed_from_u64(9), false);
             let onehot = vec![0, 2, 4, 1, 2, 0];
             let dense: Vec<f64> = (0..12).map(|i| ((i as f64) * 0.37).sin()).collect();
-            let x = Inputs { onehot: &onehot, dense: &dense, batch: 3 };
+            let x = Inputs::full(&onehot, &dense, 3);
             let (mut o1, mut o2) = (vec![0.0; 3], vec![0.0; 3]);
             m.forward(&x, &mut Cache::default(), &mut o1);
             m.eval(&x, &mut o2);
@@ -653,11 +695,7 @@ mod tests {
         let mut m = Mlp::<f32>::new(spec, &mut ChaCha12Rng::seed_from_u64(3), true);
         m.set_output_bias(2.5);
         let mut out = vec![0.0f32; 2];
-        m.forward(
-            &Inputs { onehot: &[0, 3], dense: &[0.1, 0.2, -1.0, 4.0], batch: 2 },
-            &mut Cache::default(),
-            &mut out,
-        );
+        m.forward(&Inputs::full(&[0, 3], &[0.1, 0.2, -1.0, 4.0], 2), &mut Cache::default(), &mut out);
         assert_eq!(out, vec![2.5, 2.5]);
     }
 }
