@@ -20,8 +20,9 @@
 //! Routed ([`ZetaInput::Routed`]), the centred block is written into one slot per action and
 //! one per source — the design element the state sits at, or one slot shared by every state
 //! that is not at one — instead of one block shared by every pair, so that the slope one pair
-//! needs does not leak into the others; the block is then mostly zeros, which the MLP's first
-//! layer skips.
+//! needs does not leak into the others; the block is then zero outside those two slots, so a
+//! column lists only them and the environment's features ([`Features::push_column`]), and the
+//! MLP's first layer and input gradient touch nothing else.
 
 use std::sync::Arc;
 

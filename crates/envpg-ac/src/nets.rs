@@ -84,7 +84,6 @@ pub struct Columns {
     pub sa: Vec<(u32, u32)>,
     /// Which ζ (index into the caller's list) each column was built at.
     pub zeta_id: Vec<u32>,
-    dense_dim: usize,
     width: usize,
     listed: bool,
 }
@@ -101,7 +100,6 @@ impl Columns {
             index: Vec::with_capacity(if listed { n * f.width() } else { 0 }),
             sa: Vec::with_capacity(n),
             zeta_id: Vec::with_capacity(n),
-            dense_dim: f.dense_dim(),
             width: f.width(),
             listed,
         }
@@ -125,9 +123,9 @@ impl Columns {
     /// Appends the column `(s, a, zeta)`; `zeta_id` names `zeta` for [`Columns::zeta_id`].
     pub fn push(&mut self, f: &Features, s: usize, a: usize, zeta: &[f64], zeta_id: u32) {
         if self.is_empty() {
-            (self.dense_dim, self.width, self.listed) = (f.dense_dim(), f.width(), f.listed());
+            (self.width, self.listed) = (f.width(), f.listed());
         }
-        debug_assert_eq!((self.dense_dim, self.listed), (f.dense_dim(), f.listed()), "one feature map per batch");
+        debug_assert_eq!((self.width, self.listed), (f.width(), f.listed()), "one feature map per batch");
         f.push_onehot(s, a, &mut self.onehot);
         f.push_column(s, a, zeta, &mut self.index, &mut self.value);
         self.sa.push((s as u32, a as u32));

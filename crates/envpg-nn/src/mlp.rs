@@ -7,8 +7,6 @@ use serde::{Deserialize, Serialize};
 
 use crate::Scalar;
 use crate::gather::{Term, accumulate};
-#[cfg(test)]
-use crate::inputs::mostly_zero;
 use crate::inputs::{Dense, Inputs, listed_input_gradient};
 use crate::linear::{Mat, Op, gemm};
 
@@ -512,6 +510,7 @@ fn add_row_sums<T: Scalar>(m: &[T], rows: usize, cols: usize, out: &mut [T]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::inputs::mostly_zero;
     use rand::SeedableRng;
     use rand_chacha::ChaCha12Rng;
 
