@@ -64,6 +64,9 @@ pub enum Zeta0 {
     /// The environment's own initial design from observable data (`ParamMdp::heuristic_design`,
     /// no model involved).
     Env,
+    /// One draw of the environment's clustered design (`ParamMdp::clustered_design`, stream
+    /// `Zeta0` of the seed; for the UAV network the users' k-means centres), no model involved.
+    Clustered,
     /// A given design.
     Given(Vec<f64>),
 }

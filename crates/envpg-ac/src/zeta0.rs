@@ -1,5 +1,5 @@
 //! Initial designs ζ₀ without the model: the environment's random design, its own heuristic
-//! one (observable data only), or a given one inside the design bounds.
+//! one or a clustered one (observable data only), or a given one inside the design bounds.
 
 use envpg_core::{ParamMdp, Purpose, Streams};
 
@@ -15,8 +15,27 @@ pub fn initial_design<E: ParamMdp + ?Sized>(env: &E, spec: &Zeta0, seed: u64) ->
             Ok(z.clone())
         }
         Zeta0::Random => Ok(env.random_design(&mut Streams::new(seed).stream(Purpose::Zeta0, 0, 0))),
+        Zeta0::Clustered => env
+            .clustered_design(&mut Streams::new(seed).stream(Purpose::Zeta0, 0, 0))
+            .ok_or_else(|| "zeta0 = clustered: this environment has no clustered design".to_string()),
         Zeta0::Env => env
             .heuristic_design()
             .ok_or_else(|| "zeta0 = env: this environment has no initial design of its own".to_string()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_clustered_start_is_the_seeds_draw_and_environments_without_one_are_an_error() {
+        let env = envpg_envs::registry().load("uav271", &[]).unwrap();
+        let sim = env.sampler();
+        let z = initial_design(sim, &Zeta0::Clustered, 4).unwrap();
+        assert_eq!(Some(z.clone()), sim.clustered_design(&mut Streams::new(4).stream(Purpose::Zeta0, 0, 0)));
+        let flpo = envpg_envs::registry().load("flpo-n10m4", &[]).unwrap();
+        let err = initial_design(flpo.sampler(), &Zeta0::Clustered, 4).unwrap_err();
+        assert!(err.contains("no clustered design"), "{err}");
     }
 }

@@ -13,8 +13,10 @@ use crate::args::{InstanceArgs, Tools, input_err, parse_init, positive};
 pub struct OracleArgs {
     #[command(flatten)]
     instance: InstanceArgs,
-    /// Number of restarts from random ζ₀ (the environment's random design: for uav uniform over
-    /// the users' bounding box, otherwise over the design bounds); the best is kept.
+    /// Number of restarts; the best is kept. ζ₀ is the environment's random design (for uav
+    /// uniform over the users' bounding box, otherwise over the design bounds), except for the
+    /// portfolio's warm restarts: its clustered design where it has one (uav: the users'
+    /// k-means centres).
     #[arg(long, default_value_t = 16)]
     restarts: usize,
     /// Seed of ζ₀ draws and annealing noise.
@@ -31,7 +33,8 @@ pub struct OracleArgs {
     /// Kinds of restart: `anneal` (deterministic annealing from hot; ζ₀ is forgotten), `warm`
     /// (from ζ₀ at --warm-alpha0, SSP form where it exists), `mixed` (one anneal, the rest
     /// warm), `portfolio` (one anneal at --cooling, then warm restarts and faster anneals at
-    /// cooling², cooling³, cooling⁴ alternate), `auto` (portfolio when the model is
+    /// cooling², cooling³, cooling⁴ alternate; warm ones start from clustered designs where
+    /// the environment has them), `auto` (portfolio when the model is
     /// deterministic, mixed otherwise). With --init, restart 0 is warm.
     #[arg(long, value_enum, default_value = "auto")]
     strategy: StrategyArg,

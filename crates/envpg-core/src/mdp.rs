@@ -66,6 +66,14 @@ pub trait ParamMdp: Send + Sync {
     fn random_design(&self, rng: &mut EnvRng) -> Vec<f64> {
         self.zeta_space().sample(rng)
     }
+    /// Hook: a random design drawn from the problem's structure rather than uniformly, from
+    /// observable data only — for the UAV network, UAVs at the k-means centres of the users from
+    /// a k-means++ seeding. Each draw lands in a different good basin as often as not; the
+    /// oracle's portfolio starts its warm restarts there, and Algorithm 1's `clustered` ζ₀ is
+    /// one draw. `None` (the default) when the environment has none.
+    fn clustered_design(&self, _rng: &mut EnvRng) -> Option<Vec<f64>> {
+        None
+    }
     /// Hook: a problem-specific initial design built from observable data only (the `env` ζ₀),
     /// if the environment has one.
     fn heuristic_design(&self) -> Option<Vec<f64>> {

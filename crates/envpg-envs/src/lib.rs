@@ -10,7 +10,8 @@
 //! | `aac` | [`aac::Aac`]: autonomy-aware clustering (arXiv 2509.25775) | cluster centres | `aac1800` |
 //! | `flpo` | [`flpo::Flpo`]: facility location with path optimization (arXiv 2507.22338) | facility positions | `flpo-n10m4` |
 //!
-//! `uav` and `flpo` share the hop kernel of [`hop::HopNetwork`]. [`registry`] returns a
+//! `uav` and `flpo` share the hop kernel of [`hop::HopNetwork`]; [`cluster::kmeans`] places the
+//! UAV network's clustered designs. [`registry`] returns a
 //! [`Registry`] with all three and their bundled instances; a program with environments of its
 //! own adds them with [`Registry::register`].
 //!
@@ -22,6 +23,7 @@
 //! ```
 
 pub mod aac;
+pub mod cluster;
 pub mod flpo;
 pub mod hop;
 pub mod uav;

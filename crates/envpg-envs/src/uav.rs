@@ -312,6 +312,10 @@ impl ParamMdp for UavNetwork {
         let uy = Uniform::new_inclusive(lo[1], hi[1]).expect("finite box");
         (0..self.n_uav()).flat_map(|_| [ux.sample(rng), uy.sample(rng)]).collect()
     }
+    /// UAVs at the k-means centres of the users ([`crate::cluster::kmeans`]), x then y per UAV.
+    fn clustered_design(&self, rng: &mut EnvRng) -> Option<Vec<f64>> {
+        Some(crate::cluster::kmeans(&self.instance.users, self.n_uav(), rng).into_iter().flatten().collect())
+    }
     fn heuristic_design(&self) -> Option<Vec<f64>> {
         Some(self.relay_chain())
     }
@@ -544,6 +548,23 @@ mod tests {
         assert_ne!(a, c);
         let env = registry().build(InstanceFile::parse(&a.to_json_pretty(), "g").unwrap(), &[]).unwrap();
         assert_eq!(env.sampler().n_states(), 50 + 3 + 1);
+    }
+
+    #[test]
+    fn clustered_designs_put_a_uav_on_each_group_of_users_reproducibly() {
+        // Two far-apart groups and two UAVs: every draw puts one UAV at each group's mean.
+        let users = vec![[0.0, 0.0], [0.2, 0.0], [0.1, 0.3], [9.0, 9.0], [9.4, 9.0]];
+        let net =
+            UavNetwork::new(UavInstance { name: "g".into(), n_uav: 2, users, dest: [5.0, 0.0] }, 1.0, 100.0).unwrap();
+        for seed in 0..10 {
+            let draw = || net.clustered_design(&mut Streams::new(seed).stream(Purpose::Zeta0, 1, 0)).unwrap();
+            let z = draw();
+            assert_eq!(z, draw(), "seed {seed}");
+            let mut uavs = [[z[0], z[1]], [z[2], z[3]]];
+            uavs.sort_by(|a, b| a[0].total_cmp(&b[0]));
+            assert!((uavs[0][0] - 0.1).abs() < 1e-12 && (uavs[0][1] - 0.1).abs() < 1e-12, "{uavs:?}");
+            assert!((uavs[1][0] - 9.2).abs() < 1e-12 && (uavs[1][1] - 9.0).abs() < 1e-12, "{uavs:?}");
+        }
     }
 
     #[test]

@@ -179,7 +179,8 @@ pub struct TrainArgs {
     pub alpha_final: Option<f64>,
     /// Initial design: `random` (the environment's random design), `env` (its own starting
     /// design: for uav the relay chain from the users' centroid to the destination, also
-    /// accepted as `users`; for flpo the benchmark's `initial_facilities`), d comma-separated
+    /// accepted as `users`; for flpo the benchmark's `initial_facilities`), `clustered` (one
+    /// draw of its clustered design from the seed: for uav the users' k-means centres), d comma-separated
     /// numbers inside the design bounds, or a result file on the same instance (its `zeta0`).
     #[arg(long)]
     pub zeta0: Option<String>,
@@ -325,11 +326,13 @@ impl TrainArgs {
     }
 }
 
-/// `--zeta0`: `random`, `env` (or `users`), a result file on the same instance, or numbers.
+/// `--zeta0`: `random`, `env` (or `users`), `clustered`, a result file on the same instance, or
+/// numbers.
 fn parse_zeta0(text: &str, env: &LoadedEnv) -> Result<Zeta0> {
     match text {
         "random" => return Ok(Zeta0::Random),
         "env" | "users" => return Ok(Zeta0::Env),
+        "clustered" => return Ok(Zeta0::Clustered),
         _ => {}
     }
     if std::path::Path::new(text).is_file() {
@@ -345,10 +348,9 @@ fn parse_zeta0(text: &str, env: &LoadedEnv) -> Result<Zeta0> {
         }
         return Ok(Zeta0::Given(r.zeta0));
     }
-    let z: Vec<f64> =
-        text.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| {
-            crate::InputError(format!("--zeta0 {text:?}: expected random, env, a result file or numbers"))
-        })?;
+    let z: Vec<f64> = text.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| {
+        crate::InputError(format!("--zeta0 {text:?}: expected random, env, clustered, a result file or numbers"))
+    })?;
     env.sampler().zeta_space().check(&z).map_err(|e| crate::InputError(format!("--zeta0: {e}")))?;
     Ok(Zeta0::Given(z))
 }

@@ -86,6 +86,7 @@ fn bad_settings_exit_with_code_2_and_name_the_setting() {
             "outside its bounds",
         ),
         (&["--in-process", "--instance", "aac1800", "--zeta0", "env"], "no initial design of its own"),
+        (&["--in-process", "--instance", "flpo-n10m4", "--zeta0", "clustered"], "no clustered design"),
         (&["--in-process", "--instance", "/no/such/instance.json"], "/no/such/instance.json"),
     ];
     for (args, needle) in cases {

@@ -24,7 +24,11 @@
 //! few percent of each other. So the default (`Strategy::Auto`) runs a *portfolio* when the
 //! model is deterministic at the first ζ₀ — restart 0 anneals at `cooling`, then warm restarts
 //! and faster anneals (`cooling²`, `cooling³`, `cooling⁴`) alternate — and otherwise mixes one
-//! anneal restart with warm restarts from random ζ₀; the best restart is kept.
+//! anneal restart with warm restarts from random ζ₀; the best restart is kept. The portfolio's
+//! warm restarts start from the environment's clustered designs
+//! ([`ParamMdp::clustered_design`](envpg_core::ParamMdp::clustered_design)) where it has them:
+//! on generated UAV instances with 2,000 and 10,000 users, warm restarts from the users' k-means
+//! centres reach designs no anneal restart finds, at a fraction of an anneal's cost.
 
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -54,7 +58,8 @@ pub enum Strategy {
     /// One anneal restart, the others warm.
     Mixed,
     /// The first restart anneals at `cooling`; then warm and faster anneal restarts alternate,
-    /// the faster ones cooling by `cooling²`, `cooling³`, `cooling⁴` per level in turn.
+    /// the faster ones cooling by `cooling²`, `cooling³`, `cooling⁴` per level in turn. Warm
+    /// restarts start from the environment's clustered design, if it has one (else random).
     Portfolio,
 }
 
@@ -295,13 +300,20 @@ pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result
     cfg.validate(model)?;
     let start = Instant::now();
     let streams = Streams::new(cfg.seed);
-    let zeta0s: Vec<Vec<f64>> = (0..cfg.restarts)
-        .map(|r| match (&cfg.init, r) {
-            (Some(z), 0) => z.clone(),
-            _ => model.random_design(&mut streams.stream(Purpose::Zeta0, r as u64, 0)),
-        })
+    let zeta0 = |r: usize| model.random_design(&mut streams.stream(Purpose::Zeta0, r as u64, 0));
+    let first = cfg.init.clone().unwrap_or_else(|| zeta0(0));
+    let deterministic = deterministic_at(model, &first);
+    let zeta0s: Vec<Vec<f64>> = std::iter::once(first)
+        .chain((1..cfg.restarts).map(|r| {
+            if cfg.portfolio(deterministic) && cfg.restart_kind(r, deterministic) == RestartKind::Warm {
+                let mut rng = streams.stream(Purpose::Zeta0, r as u64, 0);
+                if let Some(z) = model.clustered_design(&mut rng) {
+                    return z;
+                }
+            }
+            zeta0(r)
+        }))
         .collect();
-    let deterministic = deterministic_at(model, &zeta0s[0]);
     let threads = cfg.threads.clamp(1, cfg.restarts);
     // Restarts cost from a fraction to several times one another (a slow anneal, then warm
     // starts and faster anneals), so each thread takes the next restart not yet started rather
@@ -553,6 +565,34 @@ mod tests {
         assert!(portfolio.restarts[portfolio.best].j <= anneal.restarts[0].j);
         assert_eq!(portfolio.restarts[1].kind, RestartKind::Warm);
         assert_eq!(portfolio.restarts[2].cooling, portfolio.restarts[0].cooling.powi(2));
+    }
+
+    #[test]
+    fn a_portfolio_starts_its_warm_restarts_from_clustered_designs_where_the_env_has_them() {
+        let restart_zeta0 = |r: usize| Streams::new(1).stream(Purpose::Zeta0, r as u64, 0);
+        // uav (κ = 1): warm restarts from the users' k-means centres, anneals from random ζ₀.
+        let uav = envpg_envs::registry().load("uav271", &[]).unwrap();
+        let model = uav.model().unwrap();
+        let cfg = OracleConfig { restarts: 3, threads: 2, ..OracleConfig::for_env(model) };
+        let out = run_oracle(model, &cfg).unwrap();
+        let kinds: Vec<_> = out.restarts.iter().map(|r| r.kind).collect();
+        assert_eq!(kinds, [RestartKind::Anneal, RestartKind::Warm, RestartKind::Anneal]);
+        assert_eq!(out.restarts[1].zeta0, model.clustered_design(&mut restart_zeta0(1)).unwrap());
+        for r in [0, 2] {
+            assert_eq!(out.restarts[r].zeta0, model.random_design(&mut restart_zeta0(r)));
+        }
+        // A stochastic model's mixed restarts stay random.
+        let noisy = envpg_envs::registry().load("uav271", &[("kappa".into(), 0.9)]).unwrap();
+        let model = noisy.model().unwrap();
+        let out = run_oracle(model, &OracleConfig { restarts: 2, ..cfg.clone() }).unwrap();
+        assert_eq!(out.restarts[1].kind, RestartKind::Warm);
+        assert_eq!(out.restarts[1].zeta0, model.random_design(&mut restart_zeta0(1)));
+        // flpo has no clustered design: its portfolio's warm restarts start at random designs.
+        let env = flpo();
+        let model = env.model().unwrap();
+        let out = run_oracle(model, &OracleConfig { restarts: 2, ..OracleConfig::for_env(model) }).unwrap();
+        assert_eq!(out.restarts[1].kind, RestartKind::Warm);
+        assert_eq!(out.restarts[1].zeta0, model.random_design(&mut restart_zeta0(1)));
     }
 
     #[test]
