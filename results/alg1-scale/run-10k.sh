@@ -1,10 +1,11 @@
 #!/bin/bash
 # Algorithm 1 (model-free, `envpg-launch --workers 2 --seed 1`) on the generated UAV instance
 # with 10,000 users and 20 UAVs of results/oracle-scale (instance seed 1): the default preset
-# `uav`, `uav-large`, and `uav-large` with four times the episodes or three times the
-# iterations, against the best design known there. Writes alg1-10k-*.json (result files:
+# `uav`, `uav-large`, `uav-large` with four times the episodes or three times the iterations,
+# and both presets from the users' k-means centres (`--zeta0 clustered`), against the best design
+# known there. Writes alg1-10k-*.json (result files:
 # `envpg evaluate FILE` recomputes each J) and table-10k.md; result files already there are
-# kept. Run from the repository root: bash results/alg1-scale/run-10k.sh (≈ 33 min on 2 cores).
+# kept. Run from the repository root: bash results/alg1-scale/run-10k.sh (≈ 42 min on 2 cores).
 set -euo pipefail
 out=results/alg1-scale
 cargo build --release --quiet --bin envpg --bin envpg-launch
@@ -23,6 +24,8 @@ run "$out/alg1-10k-uav.json" --preset uav
 run "$out/alg1-10k-uav-large.json" --preset uav-large
 run "$out/alg1-10k-uav-large-e128.json" --preset uav-large --episodes 128 --explore-episodes 64
 run "$out/alg1-10k-uav-large-i6000.json" --preset uav-large --iterations 6000
+run "$out/alg1-10k-uav-clustered.json" --preset uav --zeta0 clustered
+run "$out/alg1-10k-uav-large-clustered.json" --preset uav-large --zeta0 clustered
 python3 - "$out" "$name" <<'PY'
 import glob, json, sys
 out, name = sys.argv[1:]
@@ -38,7 +41,9 @@ with open(f"{out}/table-10k.md", "w") as f:
                                    (f"{out}/alg1-10k-uav-large.json", "uav-large", "—"),
                                    (f"{out}/alg1-10k-uav-large-e128.json", "uav-large",
                                     "`--episodes 128 --explore-episodes 64`"),
-                                   (f"{out}/alg1-10k-uav-large-i6000.json", "uav-large", "`--iterations 6000`")):
+                                   (f"{out}/alg1-10k-uav-large-i6000.json", "uav-large", "`--iterations 6000`"),
+                                   (f"{out}/alg1-10k-uav-clustered.json", "uav", "`--zeta0 clustered`"),
+                                   (f"{out}/alg1-10k-uav-large-clustered.json", "uav-large", "`--zeta0 clustered`")):
         r = json.load(open(file))
         before = ((r.get("details") or {}).get("polish") or {}).get("J_before")
         alone = f"{100 * (before / best - 1):+.2f}%" if before else "—"
