@@ -15,13 +15,26 @@ pub fn initial_design<E: ParamMdp + ?Sized>(env: &E, spec: &Zeta0, seed: u64) ->
             Ok(z.clone())
         }
         Zeta0::Random => Ok(env.random_design(&mut Streams::new(seed).stream(Purpose::Zeta0, 0, 0))),
-        Zeta0::Clustered => env
-            .clustered_design(&mut Streams::new(seed).stream(Purpose::Zeta0, 0, 0))
-            .ok_or_else(|| "zeta0 = clustered: this environment has no clustered design".to_string()),
-        Zeta0::Env => env
-            .heuristic_design()
-            .ok_or_else(|| "zeta0 = env: this environment has no initial design of its own".to_string()),
+        Zeta0::Clustered => {
+            let z = env
+                .clustered_design(&mut Streams::new(seed).stream(Purpose::Zeta0, 0, 0))
+                .ok_or_else(|| "zeta0 = clustered: this environment has no clustered design".to_string())?;
+            checked(env, z, "clustered")
+        }
+        Zeta0::Env => {
+            let z = env
+                .heuristic_design()
+                .ok_or_else(|| "zeta0 = env: this environment has no initial design of its own".to_string())?;
+            checked(env, z, "env")
+        }
     }
+}
+
+/// An environment's own design, checked against its bounds: a hook of a user's environment
+/// that returns a design of the wrong size or outside the bounds is an error, not a panic later.
+fn checked<E: ParamMdp + ?Sized>(env: &E, z: Vec<f64>, what: &str) -> Result<Vec<f64>, String> {
+    env.zeta_space().check(&z).map_err(|e| format!("zeta0 = {what}: the environment's design is invalid: {e}"))?;
+    Ok(z)
 }
 
 #[cfg(test)]

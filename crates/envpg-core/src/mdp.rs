@@ -68,9 +68,9 @@ pub trait ParamMdp: Send + Sync {
     }
     /// Hook: a random design drawn from the problem's structure rather than uniformly, from
     /// observable data only — for the UAV network, UAVs at the k-means centres of the users from
-    /// a k-means++ seeding. Each draw lands in a different good basin as often as not; the
-    /// oracle's portfolio starts its warm restarts there, and Algorithm 1's `clustered` ζ₀ is
-    /// one draw. `None` (the default) when the environment has none.
+    /// a k-means++ seeding, so that different draws give different clusterings. The oracle's
+    /// portfolio starts its warm restarts there, and Algorithm 1's `clustered` ζ₀ is one draw.
+    /// `None` (the default) when the environment has none.
     fn clustered_design(&self, _rng: &mut EnvRng) -> Option<Vec<f64>> {
         None
     }

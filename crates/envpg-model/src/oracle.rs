@@ -314,6 +314,11 @@ pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result
             zeta0(r)
         }))
         .collect();
+    // The designs come from the environment's hooks: a wrong one is an error here, not a panic
+    // inside a restart.
+    for (r, z) in zeta0s.iter().enumerate() {
+        model.zeta_space().check(z).map_err(|e| ModelError::Invalid(format!("ζ₀ of restart {r}: {e}")))?;
+    }
     let threads = cfg.threads.clamp(1, cfg.restarts);
     // Restarts cost from a fraction to several times one another (a slow anneal, then warm
     // starts and faster anneals), so each thread takes the next restart not yet started rather
