@@ -60,7 +60,7 @@ with open(f"{out}/table.md", "w") as f:
             "the hop features tell them apart), Z = `random` (the default) and `clustered` (the users' k-means "
             "centres, drawn from the run seed); *best known* from [oracle-scale](../oracle-scale/table.md). "
             "*alone*: Algorithm 1 before the polish (— where its greedy policy loops). Result files already "
-            "there are kept, so wall times may come from different commits ([results](../README.md) lists them). "
+            "there are kept, so wall times may come from different commits ([results](../README.md) lists them) or a busy machine. "
             "Command: `bash results/alg1-scale/run.sh`.\n\n")
     f.write("| preset | ζ₀ | runs within 1% of the best design known | vs best known: median, worst |\n|---|---|---|---|\n")
     for v in variants:
