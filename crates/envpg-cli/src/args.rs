@@ -49,6 +49,7 @@ pub fn failure(e: &anyhow::Error) -> Failure {
             || c.is::<envpg_ac::config::PresetError>()
             || c.is::<envpg_ac::config::ConfigError>()
             || matches!(c.downcast_ref::<envpg_report::ReportError>(), Some(envpg_report::ReportError::Plan(_)))
+            || matches!(c.downcast_ref::<envpg_model::ModelError>(), Some(envpg_model::ModelError::Invalid(_)))
     });
     Failure { code: if input { exit::INPUT } else { exit::FAILED }, message: format!("{e:#}") }
 }

@@ -116,6 +116,7 @@ pub struct PyEnv {
     terminal: Vec<bool>,
     cost_scale: Option<f64>,
     exploring_start: bool,
+    clustered_design: bool,
     initial_design: Option<Vec<f64>>,
     model: bool,
 }
@@ -214,6 +215,7 @@ impl PyEnv {
         }
         let callable = |name: &str| -> PyResult<bool> { Ok(obj.getattr(name).is_ok_and(|m| m.is_callable())) };
         let exploring_start = callable("exploring_start")?;
+        let clustered_design = callable("clustered_design")?;
         let model = callable("outcomes")? && callable("initial_distribution")?;
         Ok(Self {
             obj: obj.unbind(),
@@ -226,6 +228,7 @@ impl PyEnv {
             terminal,
             cost_scale,
             exploring_start,
+            clustered_design,
             initial_design,
             model,
         })
@@ -302,6 +305,20 @@ impl ParamMdp for PyEnv {
     }
     fn heuristic_design(&self) -> Option<Vec<f64>> {
         self.initial_design.clone()
+    }
+    /// The class's `clustered_design(rng)`, if it has one (checked against the bounds by its
+    /// callers: the oracle and `zeta0 = clustered`).
+    fn clustered_design(&self, rng: &mut EnvRng) -> Option<Vec<f64>> {
+        if !self.clustered_design {
+            return None;
+        }
+        let design = Python::attach(|py| {
+            let obj = self.obj.bind(py);
+            let v = with_rng(py, rng, |r| obj.call_method1("clustered_design", (r,)))?;
+            v.extract::<Vec<f64>>()
+                .map_err(|_| format!("{}.clustered_design(rng) returned {v}, not a list of numbers", self.class))
+        });
+        Some(design.unwrap_or_else(|m| fail(m)))
     }
     fn step(&self, s: usize, a: usize, zeta: &[f64], rng: &mut EnvRng) -> (usize, f64) {
         Python::attach(|py| {

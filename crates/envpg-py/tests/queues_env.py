@@ -96,3 +96,16 @@ class Queues(envpg.Env):
             return nxt, prob, costs
         dcost = [[2.0 * self.w[0] * zeta[0], 2.0 * self.w[1] * zeta[1]] for _ in nxt]
         return nxt, prob, costs, dprob, dcost
+
+
+class ClusteredQueues(Queues):
+    """Queues with a clustered design hook: service rates drawn near the middle of their range."""
+
+    def __init__(self, buffer=2, outside=False):
+        super().__init__(buffer=buffer)
+        self.outside = outside
+
+    def clustered_design(self, rng):
+        if self.outside:
+            return [2.0, 0.5]
+        return [0.4 + 0.2 * rng.random(), 0.4 + 0.2 * rng.random()]

@@ -46,6 +46,22 @@ def test_the_oracle_runs_on_a_python_model():
     assert envpg.evaluate(r) == pytest.approx(r.J, rel=1e-9)
 
 
+def test_a_clustered_design_hook_starts_training_and_the_portfolios_warm_restarts():
+    from queues_env import ClusteredQueues
+
+    r = envpg.train(ClusteredQueues(), workers=1, seed=3, zeta0="clustered", progress=False, **SHORT)
+    assert all(0.4 <= z <= 0.6 for z in r.raw["zeta0"]), r.raw["zeta0"]
+    o = envpg.oracle(ClusteredQueues(), restarts=2, threads=1, strategy="portfolio")
+    warm = o.raw["details"]["restarts"][1]
+    assert warm["kind"] == "warm" and all(0.4 <= z <= 0.6 for z in warm["zeta0"]), warm
+    with pytest.raises(envpg.InputError, match="clustered"):
+        envpg.train(ClusteredQueues(outside=True), workers=1, zeta0="clustered", progress=False, **SHORT)
+    with pytest.raises(envpg.InputError, match="restart 1"):
+        envpg.oracle(ClusteredQueues(outside=True), restarts=2, threads=1, strategy="portfolio")
+    with pytest.raises(envpg.InputError, match="no clustered design"):
+        envpg.train(Queues(), workers=1, zeta0="clustered", progress=False, **SHORT)
+
+
 def test_constructor_arguments_are_recorded_by_name():
     from broken_envs import TakesStar
 

@@ -36,7 +36,9 @@ class Env:
 
     Optional: ``gamma`` (1.0: a stochastic shortest path problem), ``zeta_names``,
     ``cost_scale`` (an episode's typical cost, the unit of Algorithm 1's scale-free settings),
-    ``initial_design`` (ζ₀ for ``zeta0="env"``), ``exploring_start(rng) -> int``; and the model
+    ``initial_design`` (ζ₀ for ``zeta0="env"``), ``exploring_start(rng) -> int``,
+    ``clustered_design(rng) -> list[float]`` (a design drawn from the problem's structure: ζ₀
+    for ``zeta0="clustered"`` and the start of the oracle portfolio's warm restarts); and the model
     for the oracle and exact evaluation: ``initial_distribution() -> [(s, p), …]`` and
     ``outcomes(s, a, zeta, grad) -> (next, prob, cost)``, with ``grad`` also ``(dprob, dcost)``:
     per outcome a list of the d derivatives by ζ.
