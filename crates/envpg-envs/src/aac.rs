@@ -129,6 +129,10 @@ impl EnvSpec for Aac {
         if k == 0 {
             return Err(file.invalid("clusters", "must be at least 1".into()));
         }
+        if k > crate::MAX_DESIGN_POINTS {
+            let max = crate::MAX_DESIGN_POINTS;
+            return Err(file.invalid("clusters", format!("at most {max} clusters are supported, got {k}")));
+        }
         let pts = points(file, "points")?;
         if pts.is_empty() {
             return Err(file.invalid("points", "must contain at least one point".into()));
@@ -413,6 +417,7 @@ mod tests {
         let base = r#""env":"aac","name":"t","points":[[0,0],[1,1]]"#;
         for (extra, field) in [
             (r#","clusters":0"#, "clusters"),
+            (r#","clusters":4294967296"#, "clusters"),
             (r#","clusters":2,"params":{"deviation":1}"#, "params.deviation"),
             (r#","clusters":2,"params":{"temperature":0}"#, "params.temperature"),
             (r#","clusters":2,"params":{"w_point":-1}"#, "params.w_point"),

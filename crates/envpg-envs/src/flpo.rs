@@ -99,6 +99,10 @@ impl EnvSpec for Flpo {
         if m == 0 {
             return Err(file.invalid("facilities", "must be at least 1".into()));
         }
+        if m > crate::MAX_DESIGN_POINTS {
+            let max = crate::MAX_DESIGN_POINTS;
+            return Err(file.invalid("facilities", format!("at most {max} facilities are supported, got {m}")));
+        }
         let agents: Vec<Agent> = file.field("agents")?;
         let destinations = points(file, "destinations")?;
         if agents.is_empty() {
@@ -351,5 +355,10 @@ mod tests {
             let e = reg.build(InstanceFile::parse(&text, "t.json").unwrap(), &[]).unwrap_err().to_string();
             assert!(e.contains(&format!("`{field}`")), "{text}: {e}");
         }
+        // A huge count is refused before anything is allocated for it.
+        let huge = base.replace(r#""facilities":2"#, r#""facilities":4294967296"#);
+        let text = format!(r#"{{{huge},"agents":[{{"start":[0,0],"dest":0}}]}}"#);
+        let e = reg.build(InstanceFile::parse(&text, "t.json").unwrap(), &[]).unwrap_err().to_string();
+        assert!(e.contains("`facilities`") && e.contains("at most 32"), "{text}: {e}");
     }
 }

@@ -30,6 +30,11 @@ pub mod uav;
 
 use envpg_core::Registry;
 
+/// Largest number of design points (UAVs, facilities, cluster centres) an instance may have: ζ
+/// travels in fixed-size protocol headers of 64 coordinates, and a larger count read from a
+/// file is refused before anything is allocated for it.
+pub const MAX_DESIGN_POINTS: usize = 32;
+
 /// The name by which the paper's instance is selected on command lines.
 pub const BUNDLED_UAV: &str = "uav271";
 

@@ -27,8 +27,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::hop::{HopNetwork, Place};
 
-/// Largest number of UAVs an instance may have (ζ travels in fixed-size protocol headers).
-pub const MAX_UAVS: usize = 32;
+/// Largest number of UAVs an instance may have ([`crate::MAX_DESIGN_POINTS`]).
+pub const MAX_UAVS: usize = crate::MAX_DESIGN_POINTS;
 
 /// The bundled instance of the paper (`launch/instances/uav271.json`).
 pub const UAV271: &str = include_str!("../../../launch/instances/uav271.json");
