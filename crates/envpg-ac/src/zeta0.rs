@@ -9,30 +9,22 @@ use crate::config::Zeta0;
 /// restart 0 with that seed, so `envpg oracle --strategy warm --restarts 1 --seed S` starts
 /// where a model-free run with seed S does.
 pub fn initial_design<E: ParamMdp + ?Sized>(env: &E, spec: &Zeta0, seed: u64) -> Result<Vec<f64>, String> {
-    match spec {
+    let (what, design, missing) = match spec {
         Zeta0::Given(z) => {
             env.zeta_space().check(z).map_err(|e| format!("zeta0: {e}"))?;
-            Ok(z.clone())
+            return Ok(z.clone());
         }
-        Zeta0::Random => Ok(env.random_design(&mut Streams::new(seed).stream(Purpose::Zeta0, 0, 0))),
-        Zeta0::Clustered => {
-            let z = env
-                .clustered_design(&mut Streams::new(seed).stream(Purpose::Zeta0, 0, 0))
-                .ok_or_else(|| "zeta0 = clustered: this environment has no clustered design".to_string())?;
-            checked(env, z, "clustered")
-        }
-        Zeta0::Env => {
-            let z = env
-                .heuristic_design()
-                .ok_or_else(|| "zeta0 = env: this environment has no initial design of its own".to_string())?;
-            checked(env, z, "env")
-        }
-    }
-}
-
-/// An environment's own design, checked against its bounds: a hook of a user's environment
-/// that returns a design of the wrong size or outside the bounds is an error, not a panic later.
-fn checked<E: ParamMdp + ?Sized>(env: &E, z: Vec<f64>, what: &str) -> Result<Vec<f64>, String> {
+        Zeta0::Random => return Ok(env.random_design(&mut Streams::new(seed).stream(Purpose::Zeta0, 0, 0))),
+        Zeta0::Clustered => (
+            "clustered",
+            env.clustered_design(&mut Streams::new(seed).stream(Purpose::Zeta0, 0, 0)),
+            "no clustered design",
+        ),
+        Zeta0::Env => ("env", env.heuristic_design(), "no initial design of its own"),
+    };
+    // The environment's own design: a hook of a user's environment that returns one of the wrong
+    // size or outside the bounds is an error, not a panic later.
+    let z = design.ok_or_else(|| format!("zeta0 = {what}: this environment has {missing}"))?;
     env.zeta_space().check(&z).map_err(|e| format!("zeta0 = {what}: the environment's design is invalid: {e}"))?;
     Ok(z)
 }

@@ -301,24 +301,22 @@ pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result
     let start = Instant::now();
     let streams = Streams::new(cfg.seed);
     let zeta0 = |r: usize| model.random_design(&mut streams.stream(Purpose::Zeta0, r as u64, 0));
-    let first = cfg.init.clone().unwrap_or_else(|| zeta0(0));
-    let deterministic = deterministic_at(model, &first);
-    let zeta0s: Vec<Vec<f64>> = std::iter::once(first)
-        .chain((1..cfg.restarts).map(|r| {
-            if cfg.portfolio(deterministic) && cfg.restart_kind(r, deterministic) == RestartKind::Warm {
-                let mut rng = streams.stream(Purpose::Zeta0, r as u64, 0);
-                if let Some(z) = model.clustered_design(&mut rng) {
-                    return z;
-                }
-            }
-            zeta0(r)
-        }))
-        .collect();
     // The designs come from the environment's hooks: a wrong one is an error here, not a panic
-    // inside a restart.
-    for (r, z) in zeta0s.iter().enumerate() {
-        model.zeta_space().check(z).map_err(|e| ModelError::Invalid(format!("ζ₀ of restart {r}: {e}")))?;
-    }
+    // in the model or inside a restart.
+    let checked = |r: usize, z: Vec<f64>| {
+        model.zeta_space().check(&z).map_err(|e| ModelError::Invalid(format!("ζ₀ of restart {r}: {e}")))?;
+        Ok::<_, ModelError>(z)
+    };
+    let first = checked(0, cfg.init.clone().unwrap_or_else(|| zeta0(0)))?;
+    let deterministic = deterministic_at(model, &first);
+    let zeta0s: Vec<Vec<f64>> = std::iter::once(Ok(first))
+        .chain((1..cfg.restarts).map(|r| {
+            let warm = cfg.portfolio(deterministic) && cfg.restart_kind(r, deterministic) == RestartKind::Warm;
+            let clustered =
+                if warm { model.clustered_design(&mut streams.stream(Purpose::Zeta0, r as u64, 0)) } else { None };
+            checked(r, clustered.unwrap_or_else(|| zeta0(r)))
+        }))
+        .collect::<Result<_, _>>()?;
     let threads = cfg.threads.clamp(1, cfg.restarts);
     // Restarts cost from a fraction to several times one another (a slow anneal, then warm
     // starts and faster anneals), so each thread takes the next restart not yet started rather
