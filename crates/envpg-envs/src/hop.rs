@@ -250,7 +250,8 @@ impl HopNetwork {
         // Every derivative here is a combination of ∂d_l (d_l = ‖x_{t_l} − x_s‖²): collect one
         // coefficient per target, then scatter the sparse ∂d_l once. The off-target
         // probabilities come from `prob`, so no exponential is recomputed.
-        let mut small = [0.0f64; 64];
+        // Zeroing a scratch sized for the largest network on every call showed in profiles.
+        let mut small = [0.0f64; 32];
         let mut large = Vec::new();
         let coef: &mut [f64] = if k_n <= small.len() {
             &mut small[..k_n]

@@ -410,29 +410,47 @@ pub fn anneal<M: ModelMdp + ?Sized>(
             space.project(&mut zeta);
         }
         let mut form = if alpha > alpha_switch { horizon } else { Form::Ssp };
+        // The level's first evaluation, when the form check below already made it.
+        let mut first = None;
         // Near the divergence boundary the SSP objective falls towards −∞ and its gradient
         // explodes, luring ζ into a trap; where the soft SSP values exist they agree with the
         // horizon form to rounding at low α. Use SSP only where it exists and agrees.
         if form == Form::Ssp && alpha > 0.0 {
-            let ssp = ssp_obj.value(&zeta, warm.as_deref());
+            // With the exact gradient: where SSP is kept, this is exactly the first evaluation
+            // of the level's minimization (same ζ, same warm start), which then reuses it. The
+            // central-difference gradient costs 2d solves, too many to spend on a check.
+            let ssp = match cfg.gradient {
+                GradientKind::Exact => ssp_obj.value_grad(&zeta, warm.as_deref()).map(|e| (e.value, Some(e))),
+                GradientKind::Fd => ssp_obj.value(&zeta, warm.as_deref()).map(|(v, _)| (v, None)),
+            };
             let hor = hor_obj.value(&zeta, None);
             let agree = match (&ssp, &hor) {
                 (Ok((a, _)), Ok((b, _))) => (a - b).abs() <= 1e-6 * (1.0 + b.abs()),
                 _ => false,
             };
-            if !agree {
+            if agree {
+                first = ssp.ok().and_then(|(_, e)| e);
+            } else {
                 form = horizon;
                 fallbacks += 1;
             }
         }
         let obj = if form == Form::Ssp { &ssp_obj } else { &hor_obj };
         let mut last_warm = warm.clone();
-        let res = minimize_in(&zeta, bounds, &lb, |z| match obj.value_grad(z, last_warm.as_deref()) {
-            Ok(e) => {
-                last_warm = Some(e.warm);
-                Some((e.value, e.grad))
+        let res = minimize_in(&zeta, bounds, &lb, |z| {
+            let e = match first.take() {
+                // minimize_in starts at ζ itself: ζ is inside the bounds here (no level noise
+                // below the switch), so its projection changes no bit.
+                Some(e) if z == zeta.as_slice() => Ok(e),
+                _ => obj.value_grad(z, last_warm.as_deref()),
+            };
+            match e {
+                Ok(e) => {
+                    last_warm = Some(e.warm);
+                    Some((e.value, e.grad))
+                }
+                Err(_) => None,
             }
-            Err(_) => None,
         });
         let Some(res) = res else {
             // Not even the starting point of this level is solvable: report the cause.

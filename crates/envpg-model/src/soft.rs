@@ -58,7 +58,14 @@ pub(crate) fn backup(snap: &Snapshot, s: usize, alpha: f64, v: &[f64], pi_s: &mu
         let x = -(q - qmin) / alpha;
         // exp underflows to exactly 0 below −745.2: skip the call (most actions of most states
         // at low α), same bits.
-        let e = if x < -746.0 { 0.0 } else { x.exp() };
+        // The best action's exp(−0) is exactly 1: skip that call too.
+        let e = if x < -746.0 {
+            0.0
+        } else if x == 0.0 {
+            1.0
+        } else {
+            x.exp()
+        };
         *p = e;
         z += e;
     }
