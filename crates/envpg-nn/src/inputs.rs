@@ -183,7 +183,7 @@ pub(crate) fn listed_input_gradient<T: Scalar>(
             k0 = k1;
         }
     }
-    runs.sort_unstable();
+    group_runs(&mut runs, w.len() / h.max(1));
     let mut cols = Vec::with_capacity(h * GROUP);
     let mut prod = Vec::new();
     for same in runs.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
@@ -203,6 +203,31 @@ pub(crate) fn listed_input_gradient<T: Scalar>(
             }
         }
     }
+}
+
+/// Orders `runs` as `sort_unstable` would (by first input, length, sample, entry) in linear time:
+/// they arrive ordered by (sample, entry), so a stable bucket sort by first input followed by a
+/// stable sort by length within each bucket (usually one length, already in order) gives the
+/// lexicographic order. `dim` bounds the first inputs.
+fn group_runs(runs: &mut Vec<(u32, u32, u32, u32)>, dim: usize) {
+    debug_assert!(runs.windows(2).all(|p| (p[0].2, p[0].3) < (p[1].2, p[1].3)), "runs in sample order");
+    let mut start = vec![0usize; dim + 1];
+    for r in runs.iter() {
+        start[r.0 as usize + 1] += 1;
+    }
+    for i in 0..dim {
+        start[i + 1] += start[i];
+    }
+    let mut sorted = vec![(0, 0, 0, 0); runs.len()];
+    for &r in runs.iter() {
+        let at = &mut start[r.0 as usize];
+        sorted[*at] = r;
+        *at += 1;
+    }
+    for bucket in sorted.chunk_by_mut(|x, y| x.0 == y.0) {
+        bucket.sort_by_key(|r| r.1);
+    }
+    *runs = sorted;
 }
 
 #[cfg(test)]
@@ -235,6 +260,23 @@ mod tests {
                 assert_eq!(listed[e].to_bits(), whole[s * dim + i as usize].to_bits(), "h {h}, sample {s}, input {i}");
             }
         }
+    }
+
+    #[test]
+    fn runs_are_grouped_in_the_order_of_a_full_sort() {
+        // Runs in (sample, entry) order with first inputs and lengths repeating out of order.
+        let mut runs = Vec::new();
+        for s in 0..200u32 {
+            let mut k0 = 0;
+            for (first, len) in [((s * 7) % 11, 1 + s % 3), (20 + (s * 5) % 4, 2), (30 + s % 2, 1 + (s / 7) % 2)] {
+                runs.push((first, len, s, k0));
+                k0 += len;
+            }
+        }
+        let mut want = runs.clone();
+        want.sort_unstable();
+        group_runs(&mut runs, 40);
+        assert_eq!(runs, want);
     }
 
     #[test]
