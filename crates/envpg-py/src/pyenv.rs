@@ -154,6 +154,9 @@ fn import_class<'py>(py: Python<'py>, class: &str, script: Option<&str>) -> PyRe
     Ok(obj)
 }
 
+/// The most states (and actions) an environment may have: ids travel as `u32`.
+const MAX_IDS: usize = u32::MAX as usize;
+
 impl PyEnv {
     fn build(py: Python<'_>, class: &str, script: Option<&str>, config: &serde_json::Value) -> PyResult<Self> {
         let cls = import_class(py, class, script)?;
@@ -165,6 +168,13 @@ impl PyEnv {
         if n_states == 0 || n_actions == 0 {
             return Err(value_error(format!(
                 "n_states and n_actions must be positive, got {n_states} and {n_actions}"
+            )));
+        }
+        // Episodes carry states and actions as 32-bit ids; a larger count would wrap silently.
+        if n_states > MAX_IDS || n_actions > MAX_IDS {
+            return Err(value_error(format!(
+                "n_states and n_actions must be at most {MAX_IDS} (episodes carry 32-bit ids), got {n_states} and \
+                 {n_actions}"
             )));
         }
         let low: Option<Vec<f64>> = optional(&obj, "zeta_low")?.map(|v| v.extract()).transpose()?;
@@ -184,9 +194,13 @@ impl PyEnv {
         if !(gamma > 0.0 && gamma <= 1.0) {
             return Err(value_error(format!("gamma must be in (0, 1], got {gamma}")));
         }
-        let mut actions = Vec::with_capacity(n_states);
-        let mut terminal = Vec::with_capacity(n_states);
+        // Grown as the environment answers, not reserved up front: a mistaken n_states of
+        // billions is then a slow loop the user can interrupt, not an allocation that aborts.
+        let (mut actions, mut terminal) = (Vec::new(), Vec::new());
         for s in 0..n_states {
+            if s % 4096 == 4095 {
+                py.check_signals()?;
+            }
             let t: bool = obj.call_method1("is_terminal", (s,))?.extract()?;
             let a: Vec<usize> = obj.call_method1("valid_actions", (s,))?.extract()?;
             if a.windows(2).any(|w| w[0] >= w[1]) || a.last().is_some_and(|&x| x >= n_actions) {

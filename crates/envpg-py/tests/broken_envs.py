@@ -39,6 +39,14 @@ class BadConstructor(Queues):
         return {"simulator": "/no/such/simulator-file"}
 
 
+class HugeStates(Queues):
+    """Claims more states than episodes can name."""
+
+    def __init__(self):
+        super().__init__()
+        self.n_states = 2**40
+
+
 class BadActions(Queues):
     def valid_actions(self, s):
         return [2, 0]

@@ -2,7 +2,7 @@
 traceback; neither leaves processes or shared memory behind."""
 
 import pytest
-from broken_envs import BadActions, BadConstructor, LeavesTheStates, Raises, ReturnsNaN
+from broken_envs import BadActions, BadConstructor, HugeStates, LeavesTheStates, Raises, ReturnsNaN
 from conftest import SHORT, run_processes, shm_segments
 from queues_env import Queues
 
@@ -39,6 +39,8 @@ def test_an_environment_that_cannot_be_built_is_bad_input():
         envpg.train(BadConstructor(), progress=False)
     with pytest.raises(envpg.InputError, match="increasing"):
         envpg.train(BadActions(), progress=False)
+    with pytest.raises(envpg.InputError, match="at most 4294967295.*got 1099511627776"):
+        envpg.train(HugeStates(), progress=False)
     with pytest.raises(envpg.InputError, match="is not an environment"):
         envpg.train(object(), progress=False)
 
