@@ -74,5 +74,5 @@ pub use instance::{InstanceError, InstanceFile, ParamSpec};
 pub use mdp::{DesignElement, EnvRng, ModelMdp, OracleHints, Outcomes, ParamMdp};
 pub use registry::{EnvSpec, LoadedEnv, NoModel, Registry};
 pub use result::ResultFile;
-pub use rng::{Purpose, Streams};
+pub use rng::{Purpose, StreamRng, Streams};
 pub use zeta::{ZetaError, ZetaSpace};

@@ -182,8 +182,8 @@ pub fn polish_candidates<E: ParamMdp + Sync + ?Sized>(
     let screened: Vec<(Vec<f64>, Vec<usize>, PolishReport)> =
         starts.iter().map(|(z, a)| polish_run(env, a, z, &screen, streams, 0)).collect();
     let selection = PolishSettings { episodes: 4 * s.episodes, ..*s };
-    let scores =
-        on_two_threads(&screened, |(z, a, _)| sampled::sampled_cost(env, a, z, &selection, streams, SELECTION));
+    let episodes = sampled::Episodes::new(streams, SELECTION, selection.episodes);
+    let scores = on_two_threads(&screened, |(z, a, _)| sampled::sampled_cost(env, a, z, &selection, &episodes));
     let kept = (0..scores.len())
         .min_by(|&a, &b| {
             let (ka, kb) = (scores[a].key(), scores[b].key());
@@ -277,13 +277,14 @@ fn polish_run<E: ParamMdp + Sync + ?Sized>(
     let mut step = s.step;
     for local in 0..s.iterations as u64 {
         let it = first + local;
+        let episodes = sampled::Episodes::new(streams, it, s.episodes);
         if let Some(round) = round_at(local) {
             let p = improve_policy(env, &action, &z, s, streams, first + round);
             report.transitions += p.transitions;
             report.policy_rounds += 1;
             if p.changed > 0 {
                 // Kept only if this iteration's episodes cost less under it.
-                let j = sampled::sampled_costs_of(env, &[&action, &p.action], &z, s, streams, it);
+                let j = sampled::sampled_costs_of(env, &[&action, &p.action], &z, s, &episodes);
                 report.transitions += j.iter().map(|x| x.steps).sum::<u64>();
                 if j[1].improves_on(&j[0], s.z) {
                     action = p.action;
@@ -306,7 +307,7 @@ fn polish_run<E: ParamMdp + Sync + ?Sized>(
                 designs.push(y);
             }
         }
-        let j = sampled::sampled_costs(env, action, &designs, s, streams, it);
+        let j = sampled::sampled_costs(env, action, &designs, s, &episodes);
         report.transitions += j.iter().map(|x| x.steps).sum::<u64>();
         if local == 0 {
             report.j_estimate_before = j[0].cost;
@@ -325,7 +326,7 @@ fn polish_run<E: ParamMdp + Sync + ?Sized>(
         for _ in 0..6 {
             let mut y: Vec<f64> = z.iter().zip(&g).map(|(zi, gi)| zi - step * gi / norm).collect();
             space.project(&mut y);
-            let jy = sampled::sampled_cost(env, action, &y, s, streams, it);
+            let jy = sampled::sampled_cost(env, action, &y, s, &episodes);
             report.transitions += jy.steps;
             if jy.improves_on(&j[0], s.z) {
                 z = y;
@@ -346,7 +347,7 @@ fn polish_run<E: ParamMdp + Sync + ?Sized>(
 
 #[cfg(test)]
 mod tests {
-    use super::sampled::{Sampled, sampled_cost};
+    use super::sampled::{Episodes, Sampled, sampled_cost};
     use super::*;
     use crate::nets::ActionSets;
     use envpg_envs::uav::{GenerateSpec, UavNetwork, generate};
@@ -512,8 +513,9 @@ mod tests {
         let zeta = vec![c[0], c[1], c[0] + 0.001, c[1], c[0], c[1] + 3.0];
         let s = settings(2);
         let streams = Streams::new(4);
+        let episodes = Episodes::new(&streams, 0, s.episodes);
         let (p, l) =
-            (sampled_cost(&net, &proper, &zeta, &s, &streams, 0), sampled_cost(&net, &looping, &zeta, &s, &streams, 0));
+            (sampled_cost(&net, &proper, &zeta, &s, &episodes), sampled_cost(&net, &looping, &zeta, &s, &episodes));
         assert!(l.capped > 0 && p.capped == 0, "{l:?} {p:?}");
         assert!(l.cost < p.cost, "the trap: capped episodes look cheap ({l:?} {p:?})");
         assert!(l.loops() && !p.loops());

@@ -4,31 +4,44 @@
 //! otherwise the lower mean wins — by at least `z` standard errors of the paired per-episode
 //! differences when the polish asks for significance ([`PolishSettings::z`]).
 
-use envpg_core::{ParamMdp, Purpose, Streams};
+use envpg_core::{ParamMdp, Purpose, StreamRng, Streams};
 
 use super::{PolishSettings, on_two_threads};
 
-/// Mean cost of episodes `0..n` of polish iteration `it` at `zeta` under the deterministic
-/// policy `action` (one action per state), and the number of steps taken.
+/// The streams of episodes `0..n` of one polish iteration, primed once and cloned by every
+/// design and policy sampled on them: the same words as fresh streams, without deriving their
+/// keys and running the cipher again at each of the iteration's few dozen samples.
+pub(super) struct Episodes {
+    rngs: Vec<StreamRng>,
+}
+
+impl Episodes {
+    /// Episodes `0..n` of polish iteration `it`.
+    pub(super) fn new(streams: &Streams, it: u64, n: usize) -> Self {
+        Self { rngs: (0..n as u64).map(|e| streams.primed_stream(Purpose::Polish, it, e)).collect() }
+    }
+}
+
+/// Mean cost of `episodes` at `zeta` under the deterministic policy `action` (one action per
+/// state), and the number of steps taken.
 pub(super) fn sampled_cost<E: ParamMdp + Sync + ?Sized>(
     env: &E,
     action: &[usize],
     zeta: &[f64],
     s: &PolishSettings,
-    streams: &Streams,
-    it: u64,
+    episodes: &Episodes,
 ) -> Sampled {
     let gamma = env.gamma();
     let mut out = Sampled {
         cost: 0.0,
         capped: 0,
         steps: 0,
-        episodes: s.episodes as u64,
+        episodes: episodes.rngs.len() as u64,
         ssp: gamma == 1.0,
-        per_episode: Vec::with_capacity(if s.z > 0.0 { s.episodes } else { 0 }),
+        per_episode: Vec::with_capacity(if s.z > 0.0 { episodes.rngs.len() } else { 0 }),
     };
-    for e in 0..s.episodes as u64 {
-        let mut rng = streams.stream(Purpose::Polish, it, e);
+    for primed in &episodes.rngs {
+        let mut rng = primed.clone();
         let mut st = env.sample_initial(&mut rng);
         let mut done = false;
         let mut disc = 1.0;
@@ -50,7 +63,7 @@ pub(super) fn sampled_cost<E: ParamMdp + Sync + ?Sized>(
             out.per_episode.push(episode);
         }
     }
-    out.cost /= s.episodes as f64;
+    out.cost /= episodes.rngs.len() as f64;
     out
 }
 
@@ -122,22 +135,20 @@ pub(super) fn sampled_costs<E: ParamMdp + Sync + ?Sized>(
     action: &[usize],
     designs: &[Vec<f64>],
     s: &PolishSettings,
-    streams: &Streams,
-    it: u64,
+    episodes: &Episodes,
 ) -> Vec<Sampled> {
-    on_two_threads(designs, |z| sampled_cost(env, action, z, s, streams, it))
+    on_two_threads(designs, |z| sampled_cost(env, action, z, s, episodes))
 }
 
-/// Sampled costs of several policies at one design, on the episodes of polish iteration `it`.
+/// Sampled costs of several policies at one design, on `episodes`.
 pub(super) fn sampled_costs_of<E: ParamMdp + Sync + ?Sized>(
     env: &E,
     actions: &[&[usize]],
     zeta: &[f64],
     s: &PolishSettings,
-    streams: &Streams,
-    it: u64,
+    episodes: &Episodes,
 ) -> Vec<Sampled> {
-    on_two_threads(actions, |a| sampled_cost(env, a, zeta, s, streams, it))
+    on_two_threads(actions, |a| sampled_cost(env, a, zeta, s, episodes))
 }
 
 #[cfg(test)]
