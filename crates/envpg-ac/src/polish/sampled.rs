@@ -11,14 +11,31 @@ use super::{PolishSettings, on_two_threads};
 /// The streams of episodes `0..n` of one polish iteration, primed once and cloned by every
 /// design and policy sampled on them: the same words as fresh streams, without deriving their
 /// keys and running the cipher again at each of the iteration's few dozen samples.
-pub(super) struct Episodes {
-    rngs: Vec<StreamRng>,
+pub(super) struct Episodes<'a> {
+    streams: &'a Streams,
+    it: u64,
+    n: usize,
+    /// The first `min(n, MAX_PRIMED)` episodes' primed streams (the rest are made fresh).
+    primed: Vec<StreamRng>,
 }
 
-impl Episodes {
+/// Episodes whose primed streams are kept (~300 bytes each): a polish asked for millions of
+/// episodes makes the rest afresh instead of holding gigabytes.
+const MAX_PRIMED: usize = 1 << 15;
+
+impl<'a> Episodes<'a> {
     /// Episodes `0..n` of polish iteration `it`.
-    pub(super) fn new(streams: &Streams, it: u64, n: usize) -> Self {
-        Self { rngs: (0..n as u64).map(|e| streams.primed_stream(Purpose::Polish, it, e)).collect() }
+    pub(super) fn new(streams: &'a Streams, it: u64, n: usize) -> Self {
+        let primed = (0..n.min(MAX_PRIMED) as u64).map(|e| streams.primed_stream(Purpose::Polish, it, e)).collect();
+        Self { streams, it, n, primed }
+    }
+
+    /// Episode `e`'s stream, from its start.
+    fn stream(&self, e: usize) -> StreamRng {
+        match self.primed.get(e) {
+            Some(rng) => rng.clone(),
+            None => self.streams.stream(Purpose::Polish, self.it, e as u64),
+        }
     }
 }
 
@@ -29,19 +46,19 @@ pub(super) fn sampled_cost<E: ParamMdp + Sync + ?Sized>(
     action: &[usize],
     zeta: &[f64],
     s: &PolishSettings,
-    episodes: &Episodes,
+    episodes: &Episodes<'_>,
 ) -> Sampled {
     let gamma = env.gamma();
     let mut out = Sampled {
         cost: 0.0,
         capped: 0,
         steps: 0,
-        episodes: episodes.rngs.len() as u64,
+        episodes: episodes.n as u64,
         ssp: gamma == 1.0,
-        per_episode: Vec::with_capacity(if s.z > 0.0 { episodes.rngs.len() } else { 0 }),
+        per_episode: Vec::with_capacity(if s.z > 0.0 { episodes.n } else { 0 }),
     };
-    for primed in &episodes.rngs {
-        let mut rng = primed.clone();
+    for e in 0..episodes.n {
+        let mut rng = episodes.stream(e);
         let mut st = env.sample_initial(&mut rng);
         let mut done = false;
         let mut disc = 1.0;
@@ -63,7 +80,7 @@ pub(super) fn sampled_cost<E: ParamMdp + Sync + ?Sized>(
             out.per_episode.push(episode);
         }
     }
-    out.cost /= episodes.rngs.len() as f64;
+    out.cost /= episodes.n as f64;
     out
 }
 
@@ -135,7 +152,7 @@ pub(super) fn sampled_costs<E: ParamMdp + Sync + ?Sized>(
     action: &[usize],
     designs: &[Vec<f64>],
     s: &PolishSettings,
-    episodes: &Episodes,
+    episodes: &Episodes<'_>,
 ) -> Vec<Sampled> {
     on_two_threads(designs, |z| sampled_cost(env, action, z, s, episodes))
 }
@@ -146,7 +163,7 @@ pub(super) fn sampled_costs_of<E: ParamMdp + Sync + ?Sized>(
     actions: &[&[usize]],
     zeta: &[f64],
     s: &PolishSettings,
-    episodes: &Episodes,
+    episodes: &Episodes<'_>,
 ) -> Vec<Sampled> {
     on_two_threads(actions, |a| sampled_cost(env, a, zeta, s, episodes))
 }
@@ -164,6 +181,19 @@ mod tests {
             episodes: n,
             ssp,
             per_episode: per_episode.to_vec(),
+        }
+    }
+
+    #[test]
+    fn an_episodes_stream_is_its_fresh_stream_primed_or_past_the_primed_ones() {
+        use rand::Rng;
+        let streams = Streams::new(11);
+        let episodes = Episodes::new(&streams, 5, MAX_PRIMED + 2);
+        for e in [0, 1, MAX_PRIMED - 1, MAX_PRIMED, MAX_PRIMED + 1] {
+            let (mut ours, mut fresh) = (episodes.stream(e), streams.stream(Purpose::Polish, 5, e as u64));
+            for _ in 0..100 {
+                assert_eq!(ours.next_u64(), fresh.next_u64(), "episode {e}");
+            }
         }
     }
 
