@@ -9,6 +9,7 @@ fn strip_timings(mut r: envpg_core::ResultFile) -> serde_json::Value {
     r.seconds = None;
     let mut v = serde_json::to_value(&r).unwrap();
     v["details"]["transitions_per_s"] = serde_json::Value::Null;
+    v["details"]["polish"]["seconds"] = serde_json::Value::Null;
     v
 }
 
