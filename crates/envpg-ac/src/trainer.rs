@@ -284,12 +284,6 @@ impl Recorder {
             (before, table.greedy(), None)
         };
         let polish_seconds = started.elapsed().as_secs_f64();
-        let polish = polish.map(|mut report| {
-            if let Some(obj) = report.as_object_mut() {
-                obj.insert("seconds".into(), polish_seconds.into());
-            }
-            report
-        });
         let (j, j_error) = exact_j(model, &zeta, &greedy, 0.0, self.env.name);
         let alpha = learner.alpha();
         let soft = table.full().to_vec();
@@ -298,7 +292,8 @@ impl Recorder {
         let seconds = self.seconds();
         let mut details = details;
         if let Some(obj) = details.as_object_mut() {
-            if let Some(report) = polish {
+            if let Some(mut report) = polish {
+                report["seconds"] = polish_seconds.into();
                 obj.insert("polish".into(), report);
             }
             obj.insert("transitions".into(), self.transitions.into());
