@@ -4,7 +4,9 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use envpg_model::{Form, GradientKind, Objective, Snapshot, corollary_gradient, solve_horizon, solve_soft};
+use envpg_model::{
+    Form, GradientKind, Objective, Snapshot, corollary_gradient, horizon_gradient, solve_horizon, solve_soft,
+};
 
 const ZETA: [f64; 10] = [5.0, 6.0, 3.0, 4.5, 6.5, 3.0, 7.5, 6.5, 8.0, 2.0];
 
@@ -22,6 +24,14 @@ fn bench(c: &mut Criterion) {
             b.iter(|| corollary_gradient(net, &ZETA, &snap, &sol).unwrap())
         });
         g.bench_function("horizon_solve", |b| b.iter(|| solve_horizon(&snap, alpha, 6, None).unwrap()));
+        // The hot levels of an anneal use the finite-horizon form at a high temperature.
+        let hot = 20.0;
+        let hsol = solve_horizon(&snap, hot, 6, None).unwrap();
+        g.bench_function("horizon_gradient_pass", |b| b.iter(|| horizon_gradient(net, &ZETA, &snap, &hsol).unwrap()));
+        let obj = Objective::new(net, hot, Form::Horizon(6));
+        g.bench_function("value_and_gradient_horizon", |b| {
+            b.iter(|| obj.value_grad(black_box(&ZETA), Some(&sol.pi)).unwrap())
+        });
         for kind in [GradientKind::Exact, GradientKind::Fd] {
             let mut obj = Objective::new(net, alpha, Form::Ssp);
             obj.gradient = kind;

@@ -40,25 +40,32 @@ fn accumulate_with<M: ModelMdp + ?Sized>(
     grad: &mut [f64],
     coef: impl Fn(usize, usize, usize) -> (f64, f64),
 ) {
-    let mut cp = Vec::new();
-    let mut cc = Vec::new();
+    // Sized once for the largest state and written by index: pushes kept the loop's values
+    // on the stack around their capacity checks (a profile's hottest lines).
+    let widest = (0..snap.n_states).map(|s| snap.out_start[snap.sa_start[s + 1]] - snap.out_start[snap.sa_start[s]]);
+    let widest = widest.max().unwrap_or(0);
+    let mut cp = vec![0.0; widest];
+    let mut cc = vec![0.0; widest];
+    let (cost, prob, gamma) = (&snap.cost[..], &snap.prob[..], snap.gamma);
     for s in 0..snap.n_states {
         let pairs = snap.sas(s);
         if pairs.is_empty() {
             continue;
         }
         let (lo, hi) = (snap.out_start[pairs.start], snap.out_start[pairs.end]);
-        cp.clear();
-        cc.clear();
+        let (cp, cc) = (&mut cp[..hi - lo], &mut cc[..hi - lo]);
+        let mut any = false;
         for sa in pairs {
             for o in snap.outs(sa) {
                 let (w, u) = coef(s, sa, o);
-                cp.push(w * snap.cost[o] + snap.gamma * u);
-                cc.push(w * snap.prob[o]);
+                let (p, c) = (w * cost[o] + gamma * u, w * prob[o]);
+                cp[o - lo] = p;
+                cc[o - lo] = c;
+                any |= p != 0.0 || c != 0.0;
             }
         }
-        if cp.iter().chain(&cc).any(|&x| x != 0.0) {
-            mdp.accumulate_state_grad(s, zeta, &snap.prob[lo..hi], &cp, &cc, grad);
+        if any {
+            mdp.accumulate_state_grad(s, zeta, &prob[lo..hi], cp, cc, grad);
         }
     }
 }
@@ -105,25 +112,31 @@ pub fn horizon_gradient<M: ModelMdp + ?Sized>(
     let mut u = vec![0.0; snap.next.len()];
     let mut rho = mu_dense(snap);
     let mut rho_next = vec![0.0; snap.n_states];
+    // The snapshot's tables as plain slices: read through `snap`, every store into `u` or
+    // `rho_next` made the compiler reload their headers (it cannot rule out aliasing), and
+    // this loop over every pair of the first stage was a profile's hottest.
+    let (next, prob, terminal, gamma) = (&snap.next[..], &snap.prob[..], &snap.terminal[..], snap.gamma);
+    let (sa_start, out_start) = (&snap.sa_start[..], &snap.out_start[..]);
     for (h, pi) in sol.pi.iter().enumerate() {
-        let vnext = &sol.v[h + 1];
+        let vnext = &sol.v[h + 1][..];
         rho_next.iter_mut().for_each(|r| *r = 0.0);
+        let (u, w, rho_h, rho_to) = (&mut u[..], &mut w[..], &rho[..], &mut rho_next[..]);
         let mut at = 0;
         for &s in &sol.reach[h] {
-            let pairs = snap.sas(s);
+            let pairs = sa_start[s]..sa_start[s + 1];
             let pi_s = &pi[at..at + pairs.len()];
             at += pairs.len();
             for (sa, &p) in pairs.zip(pi_s) {
-                let wh = rho[s] * p;
+                let wh = rho_h[s] * p;
                 if wh == 0.0 {
                     continue;
                 }
                 w[sa] += wh;
-                for o in snap.outs(sa) {
-                    let t = snap.next[o];
+                for o in out_start[sa]..out_start[sa + 1] {
+                    let t = next[o];
                     u[o] += wh * vnext[t];
-                    if !snap.terminal[t] {
-                        rho_next[t] += snap.gamma * wh * snap.prob[o];
+                    if !terminal[t] {
+                        rho_to[t] += gamma * wh * prob[o];
                     }
                 }
             }
