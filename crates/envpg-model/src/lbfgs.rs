@@ -63,7 +63,23 @@ pub fn minimize_in(
     x0: &[f64],
     bounds: Option<(&[f64], &[f64])>,
     cfg: &LbfgsConfig,
-    mut f: impl FnMut(&[f64]) -> Option<(f64, Vec<f64>)>,
+    f: impl FnMut(&[f64]) -> Option<(f64, Vec<f64>)>,
+) -> Option<LbfgsResult> {
+    minimize_lazy(x0, bounds, cfg, f, |_, g| Some(g))
+}
+
+/// [`minimize_in`] with the gradient finished apart from the value: `value(x)` returns `f(x)`
+/// and whatever `grad` needs to compute `∇f(x)` there, and `grad(x, that)` is called only where
+/// the gradient is used — at `x0` and at accepted steps, never at a point the line search backs
+/// off from (a third or more of an oracle level's evaluations). A point whose gradient is
+/// undefined (`None`) counts as undefined; the iterates, values and counts are those of
+/// [`minimize_in`] on the pair.
+pub fn minimize_lazy<S>(
+    x0: &[f64],
+    bounds: Option<(&[f64], &[f64])>,
+    cfg: &LbfgsConfig,
+    mut value: impl FnMut(&[f64]) -> Option<(f64, S)>,
+    mut grad: impl FnMut(&[f64], S) -> Option<Vec<f64>>,
 ) -> Option<LbfgsResult> {
     let n = x0.len();
     let bounds = bounds.filter(|(l, u)| l.iter().chain(u.iter()).any(|b| b.is_finite()));
@@ -93,7 +109,8 @@ pub fn minimize_in(
     };
     let mut x = x0.to_vec();
     project(&mut x);
-    let (mut fx, mut g) = f(&x)?;
+    let (mut fx, at) = value(&x)?;
+    let mut g = grad(&x, at)?;
     let mut evals = 1;
     let mut hist: std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)> = std::collections::VecDeque::new();
     let mut iterations = 0;
@@ -154,9 +171,10 @@ pub fn minimize_in(
                 t * slope
             };
             evals += 1;
-            if let Some((ft, gt)) = f(&xt)
+            if let Some((ft, at)) = value(&xt)
                 && ft.is_finite()
                 && ft <= fx + 1e-4 * expected
+                && let Some(gt) = grad(&xt, at)
             {
                 accepted = Some((xt, ft, gt));
                 break;
@@ -236,6 +254,52 @@ mod tests {
         let sup = [f64::INFINITY, f64::INFINITY];
         let boxed = minimize_in(&[-1.2, 1.0], Some((&inf, &sup)), &cfg, rosen).unwrap();
         assert_eq!((free.x, free.iterations, free.evaluations), (boxed.x, boxed.iterations, boxed.evaluations));
+    }
+
+    /// The gradient is finished only at the start and at accepted steps, and the iterates are
+    /// those of the eager minimiser to the bit.
+    #[test]
+    fn a_lazy_gradient_is_computed_only_where_a_step_is_accepted() {
+        let cfg = LbfgsConfig { max_iter: 200, max_step: 10.0, gtol: 1e-9, ..Default::default() };
+        let f = |x: &[f64]| (1.0 - x[0]).powi(2) + 100.0 * (x[1] - x[0] * x[0]).powi(2);
+        let g =
+            |x: &[f64]| vec![-2.0 * (1.0 - x[0]) - 400.0 * x[0] * (x[1] - x[0] * x[0]), 200.0 * (x[1] - x[0] * x[0])];
+        let eager = minimize(&[-1.2, 1.0], &cfg, |x| Some((f(x), g(x)))).unwrap();
+        let (mut values, mut grads) = (0, 0);
+        let lazy = minimize_lazy(
+            &[-1.2, 1.0],
+            None,
+            &cfg,
+            |x| {
+                values += 1;
+                Some((f(x), x.to_vec()))
+            },
+            |x, at| {
+                assert_eq!(x, &at[..], "the gradient is asked at the point just evaluated");
+                grads += 1;
+                Some(g(x))
+            },
+        )
+        .unwrap();
+        assert_eq!((lazy.x.clone(), lazy.f.to_bits(), lazy.iterations), (eager.x, eager.f.to_bits(), eager.iterations));
+        assert_eq!((values, lazy.evaluations), (eager.evaluations, eager.evaluations));
+        assert_eq!(grads, lazy.iterations + 1, "x0 and one accepted step an iteration");
+        assert!(values > grads, "some trial points were backed off from, without a gradient");
+    }
+
+    /// A point whose value exists but whose gradient does not is backed off from.
+    #[test]
+    fn a_point_without_a_gradient_is_backed_off_from() {
+        let cfg = LbfgsConfig { max_iter: 100, max_step: 100.0, ..Default::default() };
+        let r = minimize_lazy(
+            &[3.0],
+            None,
+            &cfg,
+            |x| Some(((x[0] - 1.0).powi(2), ())),
+            |x, ()| (x[0] >= 0.5).then(|| vec![2.0 * (x[0] - 1.0)]),
+        )
+        .unwrap();
+        assert!((r.x[0] - 1.0).abs() < 1e-6);
     }
 
     #[test]

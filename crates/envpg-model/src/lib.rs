@@ -59,6 +59,6 @@ pub use grad::{
     ParamPolicy, accumulate_local, corollary_gradient, fd_gradient, horizon_gradient, policy_table, theorem_gradient,
 };
 pub use horizon::{HorizonSolution, solve_horizon};
-pub use objective::{Evaluated, Form, GradientKind, Objective};
+pub use objective::{Evaluated, Form, GradientKind, Objective, Solved};
 pub use snapshot::{Scc, Snapshot};
 pub use soft::{SoftSolution, greedy, solve_soft, uniform};

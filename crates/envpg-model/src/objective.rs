@@ -42,6 +42,9 @@ pub struct Objective<'a, M: ?Sized> {
     pub fd_step: f64,
     /// The last snapshot, whose component decomposition the next one reuses.
     last: std::cell::RefCell<Option<Snapshot>>,
+    /// How many snapshots have been stored in `last`: tells [`Objective::gradient`] whether
+    /// `last` is still its point's.
+    generation: std::cell::Cell<u64>,
 }
 
 impl<M: ?Sized> std::fmt::Debug for Objective<'_, M> {
@@ -51,6 +54,41 @@ impl<M: ?Sized> std::fmt::Debug for Objective<'_, M> {
             .field("form", &self.form)
             .field("gradient", &self.gradient)
             .finish()
+    }
+}
+
+/// The soft problem solved at one ζ, its gradient not yet computed: what
+/// [`Objective::solve`] returns and [`Objective::gradient`] finishes.
+#[derive(Debug, Clone)]
+pub struct Solved {
+    /// `J_H(ζ)`.
+    pub value: f64,
+    zeta: Vec<f64>,
+    solution: Solution,
+    /// The objective's snapshot generation this solution was computed on.
+    generation: u64,
+}
+
+#[derive(Debug, Clone)]
+enum Solution {
+    Ssp(crate::SoftSolution),
+    Horizon(crate::HorizonSolution),
+}
+
+impl Solution {
+    fn warm(&self) -> &[f64] {
+        match self {
+            Solution::Ssp(sol) => &sol.pi,
+            Solution::Horizon(sol) => &sol.tail.pi,
+        }
+    }
+}
+
+impl Solved {
+    /// The SSP policy (or the horizon's hard tail) per state–action pair: the warm start of
+    /// the next solve.
+    pub fn warm(&self) -> &[f64] {
+        self.solution.warm()
     }
 }
 
@@ -68,15 +106,28 @@ pub struct Evaluated {
 impl<'a, M: ModelMdp + ?Sized> Objective<'a, M> {
     /// The objective at `alpha` in `form`, exact gradient.
     pub fn new(mdp: &'a M, alpha: f64, form: Form) -> Self {
-        Self { mdp, alpha, form, gradient: GradientKind::Exact, fd_step: 1e-6, last: Default::default() }
+        Self {
+            mdp,
+            alpha,
+            form,
+            gradient: GradientKind::Exact,
+            fd_step: 1e-6,
+            last: Default::default(),
+            generation: Default::default(),
+        }
     }
 
     /// `J_H(ζ)` and the warm-start policy.
     pub fn value(&self, zeta: &[f64], warm: Option<&[f64]>) -> Result<(f64, Vec<f64>), ModelError> {
         let snap = self.snapshot(zeta);
         let out = self.value_at(&snap, warm);
-        self.last.replace(Some(snap));
+        self.keep(snap);
         out
+    }
+
+    fn keep(&self, snap: Snapshot) {
+        self.last.replace(Some(snap));
+        self.generation.set(self.generation.get() + 1);
     }
 
     fn snapshot(&self, zeta: &[f64]) -> Snapshot {
@@ -98,36 +149,50 @@ impl<'a, M: ModelMdp + ?Sized> Objective<'a, M> {
 
     /// `J_H(ζ)`, its gradient and the warm-start policy.
     pub fn value_grad(&self, zeta: &[f64], warm: Option<&[f64]>) -> Result<Evaluated, ModelError> {
-        let snap = self.snapshot(zeta);
-        let out = self.value_grad_at(zeta, &snap, warm);
-        self.last.replace(Some(snap));
-        out
+        let solved = self.solve(zeta, warm)?;
+        self.gradient(solved)
     }
 
-    fn value_grad_at(&self, zeta: &[f64], snap: &Snapshot, warm: Option<&[f64]>) -> Result<Evaluated, ModelError> {
-        let (value, warm_out, exact) = match self.form {
-            Form::Ssp => {
-                let sol = solve_soft_retry(snap, self.alpha, warm)?;
-                let g = match self.gradient {
-                    GradientKind::Exact => Some(corollary_gradient(self.mdp, zeta, snap, &sol)?),
-                    GradientKind::Fd => None,
-                };
-                (sol.j, sol.pi, g)
+    /// Solves the soft problem at `zeta` (warm-started from `warm`), leaving the gradient to
+    /// [`Objective::gradient`] — a line search needs it only at the step it accepts.
+    pub fn solve(&self, zeta: &[f64], warm: Option<&[f64]>) -> Result<Solved, ModelError> {
+        let snap = self.snapshot(zeta);
+        let solution = match self.form {
+            Form::Ssp => solve_soft_retry(&snap, self.alpha, warm).map(Solution::Ssp),
+            Form::Horizon(h) => solve_horizon_retry(&snap, self.alpha, h, warm).map(Solution::Horizon),
+        };
+        self.keep(snap);
+        let solution = solution?;
+        let value = match &solution {
+            Solution::Ssp(sol) => sol.j,
+            Solution::Horizon(sol) => sol.j,
+        };
+        Ok(Solved { value, zeta: zeta.to_vec(), solution, generation: self.generation.get() })
+    }
+
+    /// `∇ζ J_H` at a point [`Objective::solve`]d by this objective, with its value and warm
+    /// start. The exact gradient reads the snapshot the solve kept (rebuilt if this objective
+    /// has built another since).
+    pub fn gradient(&self, solved: Solved) -> Result<Evaluated, ModelError> {
+        let Solved { value, zeta, solution, generation } = solved;
+        let exact = |snap: &Snapshot| match &solution {
+            Solution::Ssp(sol) => corollary_gradient(self.mdp, &zeta, snap, sol),
+            Solution::Horizon(sol) => horizon_gradient(self.mdp, &zeta, snap, sol),
+        };
+        let grad = match self.gradient {
+            GradientKind::Exact if generation == self.generation.get() => {
+                exact(self.last.borrow().as_ref().expect("solve keeps its snapshot"))?
             }
-            Form::Horizon(h) => {
-                let sol = solve_horizon_retry(snap, self.alpha, h, warm)?;
-                let g = match self.gradient {
-                    GradientKind::Exact => Some(horizon_gradient(self.mdp, zeta, snap, &sol)?),
-                    GradientKind::Fd => None,
-                };
-                (sol.j, sol.tail.pi, g)
+            GradientKind::Exact => exact(&Snapshot::build_like(self.mdp, &zeta, self.last.borrow().as_ref()))?,
+            GradientKind::Fd => {
+                fd_gradient(&zeta, self.fd_step, |z| self.value(z, Some(solution.warm())).map(|r| r.0))?
             }
         };
-        let grad = match exact {
-            Some(g) => g,
-            None => fd_gradient(zeta, self.fd_step, |z| self.value(z, Some(&warm_out)).map(|r| r.0))?,
+        let warm = match solution {
+            Solution::Ssp(sol) => sol.pi,
+            Solution::Horizon(sol) => sol.tail.pi,
         };
-        Ok(Evaluated { value, grad, warm: warm_out })
+        Ok(Evaluated { value, grad, warm })
     }
 }
 
@@ -186,6 +251,38 @@ mod tests {
                     v
                 };
                 assert_eq!(bits(&a), bits(&b), "kappa {kappa}, {form:?}");
+            }
+        }
+    }
+
+    /// Solving first and finishing the gradient later gives `value_grad`'s bits, also when the
+    /// objective has solved at another point in between (its snapshot is then rebuilt), with
+    /// either kind of gradient.
+    #[test]
+    fn a_gradient_finished_after_the_solve_gives_value_grads_bits() {
+        let env = envpg_envs::registry().load("uav271", &[("kappa".into(), 0.9)]).unwrap();
+        let model = env.model().unwrap();
+        let zeta = model.heuristic_design().unwrap();
+        let other: Vec<f64> = zeta.iter().map(|z| z + 0.2).collect();
+        let bits = |e: &Evaluated| {
+            let mut v = vec![e.value.to_bits()];
+            v.extend(e.grad.iter().chain(&e.warm).map(|x| x.to_bits()));
+            v
+        };
+        for form in [Form::Ssp, Form::Horizon(model.oracle_hints().horizon)] {
+            for kind in [GradientKind::Exact, GradientKind::Fd] {
+                let mut obj = Objective::new(model, 0.4, form);
+                obj.gradient = kind;
+                let eager = obj.value_grad(&zeta, None).unwrap();
+                let solved = obj.solve(&zeta, None).unwrap();
+                assert_eq!(solved.value.to_bits(), eager.value.to_bits());
+                assert_eq!(solved.warm(), &eager.warm[..]);
+                let at_once = obj.gradient(solved).unwrap();
+                let solved = obj.solve(&zeta, None).unwrap();
+                obj.solve(&other, None).unwrap();
+                let later = obj.gradient(solved).unwrap();
+                assert_eq!(bits(&at_once), bits(&eager), "{form:?} {kind:?}");
+                assert_eq!(bits(&later), bits(&eager), "{form:?} {kind:?}, after another solve");
             }
         }
     }

@@ -41,8 +41,8 @@ use serde::Serialize;
 
 use crate::error::ModelError;
 use crate::evaluate::optimal_greedy;
-use crate::lbfgs::{LbfgsConfig, minimize_in};
-use crate::objective::{Form, GradientKind, Objective};
+use crate::lbfgs::{LbfgsConfig, minimize_lazy};
+use crate::objective::{Form, GradientKind, Objective, Solved};
 use crate::snapshot::Snapshot;
 
 /// Which kinds of restart an oracle run uses.
@@ -354,6 +354,14 @@ pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result
     })
 }
 
+/// What a level's line search needs to finish the gradient at a point it accepts.
+enum Point {
+    /// Already evaluated, gradient and all (the level's form check).
+    Evaluated(Vec<f64>),
+    /// Solved, gradient pending.
+    Solved(Solved),
+}
+
 /// Anneals one restart from `zeta0` (of kind [`OracleConfig::restart_kind`] given whether the
 /// model is `deterministic`).
 pub fn anneal<M: ModelMdp + ?Sized>(
@@ -437,21 +445,32 @@ pub fn anneal<M: ModelMdp + ?Sized>(
         }
         let obj = if form == Form::Ssp { &ssp_obj } else { &hor_obj };
         let mut last_warm = warm.clone();
-        let res = minimize_in(&zeta, bounds, &lb, |z| {
-            let e = match first.take() {
-                // minimize_in starts at ζ itself: ζ is inside the bounds here (no level noise
+        // Each solve warm-starts the next, backed-off trials included; the gradient is
+        // computed only where the line search uses it.
+        let res = minimize_lazy(
+            &zeta,
+            bounds,
+            &lb,
+            |z| match first.take() {
+                // minimize_lazy starts at ζ itself: ζ is inside the bounds here (no level noise
                 // below the switch), so its projection changes no bit.
-                Some(e) if z == zeta.as_slice() => Ok(e),
-                _ => obj.value_grad(z, last_warm.as_deref()),
-            };
-            match e {
-                Ok(e) => {
+                Some(e) if z == zeta.as_slice() => {
                     last_warm = Some(e.warm);
-                    Some((e.value, e.grad))
+                    Some((e.value, Point::Evaluated(e.grad)))
                 }
-                Err(_) => None,
-            }
-        });
+                _ => {
+                    let solved = obj.solve(z, last_warm.as_deref()).ok()?;
+                    let w = last_warm.get_or_insert_with(Vec::new);
+                    w.clear();
+                    w.extend_from_slice(solved.warm());
+                    Some((solved.value, Point::Solved(solved)))
+                }
+            },
+            |_, point| match point {
+                Point::Evaluated(g) => Some(g),
+                Point::Solved(solved) => obj.gradient(solved).ok().map(|e| e.grad),
+            },
+        );
         let Some(res) = res else {
             // Not even the starting point of this level is solvable: report the cause.
             return Err(obj.value(&zeta, None).err().unwrap_or(ModelError::Invalid("objective undefined".into())));
