@@ -246,10 +246,15 @@ impl HopNetwork {
     ) {
         let targets = self.targets(s);
         let k_n = targets.len();
-        let deviates = self.deviates(s);
         // Every derivative here is a combination of ∂d_l (d_l = ‖x_{t_l} − x_s‖²): collect one
         // coefficient per target, then scatter the sparse ∂d_l once. The off-target
         // probabilities come from `prob`, so no exponential is recomputed.
+        if !self.deviates(s) {
+            // One outcome per target, its own (∂p = 0, ∂c = ∂d_k): the coefficients are `cc`
+            // itself, with no scratch to zero (a third of this call's cost at κ = 1).
+            self.scatter_distance_grads(s, zeta, cc, grad);
+            return;
+        }
         // Zeroing a scratch sized for the largest network on every call showed in profiles.
         let mut small = [0.0f64; 32];
         let mut large = Vec::new();
@@ -263,25 +268,29 @@ impl HopNetwork {
         for k in 0..k_n {
             coef[k] += cc[o]; // target outcome: ∂p = 0, ∂c = ∂d_k
             o += 1;
-            if deviates {
-                // p_l = (1−κ) q_l and ∂p_l = η p_l (Σ_{l'} q_{l'} ∂d_{l'} − ∂d_l).
-                let others = o..o + k_n - 1;
-                let a_k: f64 = others.clone().map(|oo| cp[oo] * prob[oo]).sum::<f64>() / (1.0 - self.kappa);
-                for (oo, l) in others.clone().zip((0..k_n).filter(|&l| l != k)) {
-                    coef[l] += self.eta * prob[oo] * (a_k - cp[oo]) + cc[oo];
-                }
-                o = others.end;
+            // p_l = (1−κ) q_l and ∂p_l = η p_l (Σ_{l'} q_{l'} ∂d_{l'} − ∂d_l).
+            let others = o..o + k_n - 1;
+            let a_k: f64 = others.clone().map(|oo| cp[oo] * prob[oo]).sum::<f64>() / (1.0 - self.kappa);
+            for (oo, l) in others.clone().zip((0..k_n).filter(|&l| l != k)) {
+                coef[l] += self.eta * prob[oo] * (a_k - cp[oo]) + cc[oo];
             }
+            o = others.end;
         }
+        self.scatter_distance_grads(s, zeta, coef, grad);
+    }
+
+    /// Adds `Σ_l coef[l] ∂d_l/∂ζ` to `grad`, `d_l` the squared distance from `s` to its `l`-th
+    /// target.
+    fn scatter_distance_grads(&self, s: usize, zeta: &[f64], coef: &[f64], grad: &mut [f64]) {
         let xs = self.position(s, zeta);
         let is = self.zeta_index(s);
-        for (l, &t) in targets.iter().enumerate() {
-            if coef[l] == 0.0 {
+        for (&c, &t) in coef.iter().zip(self.targets(s)) {
+            if c == 0.0 {
                 continue;
             }
             let xt = self.position(t, zeta);
-            let gx = 2.0 * coef[l] * (xt[0] - xs[0]);
-            let gy = 2.0 * coef[l] * (xt[1] - xs[1]);
+            let gx = 2.0 * c * (xt[0] - xs[0]);
+            let gy = 2.0 * c * (xt[1] - xs[1]);
             if let Some(i) = self.zeta_index(t) {
                 grad[i] += gx;
                 grad[i + 1] += gy;

@@ -90,6 +90,14 @@ impl Solved {
     pub fn warm(&self) -> &[f64] {
         self.solution.warm()
     }
+
+    /// The warm start, by value.
+    pub fn into_warm(self) -> Vec<f64> {
+        match self.solution {
+            Solution::Ssp(sol) => sol.pi,
+            Solution::Horizon(sol) => sol.tail.pi,
+        }
+    }
 }
 
 /// Value and gradient at one ζ, with the policy to warm-start the next solve from.
@@ -150,7 +158,8 @@ impl<'a, M: ModelMdp + ?Sized> Objective<'a, M> {
     /// `J_H(ζ)`, its gradient and the warm-start policy.
     pub fn value_grad(&self, zeta: &[f64], warm: Option<&[f64]>) -> Result<Evaluated, ModelError> {
         let solved = self.solve(zeta, warm)?;
-        self.gradient(solved)
+        let grad = self.gradient(&solved)?;
+        Ok(Evaluated { value: solved.value, grad, warm: solved.into_warm() })
     }
 
     /// Solves the soft problem at `zeta` (warm-started from `warm`), leaving the gradient to
@@ -170,29 +179,21 @@ impl<'a, M: ModelMdp + ?Sized> Objective<'a, M> {
         Ok(Solved { value, zeta: zeta.to_vec(), solution, generation: self.generation.get() })
     }
 
-    /// `∇ζ J_H` at a point [`Objective::solve`]d by this objective, with its value and warm
-    /// start. The exact gradient reads the snapshot the solve kept (rebuilt if this objective
-    /// has built another since).
-    pub fn gradient(&self, solved: Solved) -> Result<Evaluated, ModelError> {
-        let Solved { value, zeta, solution, generation } = solved;
-        let exact = |snap: &Snapshot| match &solution {
-            Solution::Ssp(sol) => corollary_gradient(self.mdp, &zeta, snap, sol),
-            Solution::Horizon(sol) => horizon_gradient(self.mdp, &zeta, snap, sol),
+    /// `∇ζ J_H` at a point [`Objective::solve`]d by this objective. The exact gradient reads
+    /// the snapshot the solve kept (rebuilt if this objective has built another since).
+    pub fn gradient(&self, solved: &Solved) -> Result<Vec<f64>, ModelError> {
+        let Solved { zeta, solution, generation, .. } = solved;
+        let exact = |snap: &Snapshot| match solution {
+            Solution::Ssp(sol) => corollary_gradient(self.mdp, zeta, snap, sol),
+            Solution::Horizon(sol) => horizon_gradient(self.mdp, zeta, snap, sol),
         };
-        let grad = match self.gradient {
-            GradientKind::Exact if generation == self.generation.get() => {
-                exact(self.last.borrow().as_ref().expect("solve keeps its snapshot"))?
+        match self.gradient {
+            GradientKind::Exact if *generation == self.generation.get() => {
+                exact(self.last.borrow().as_ref().expect("solve keeps its snapshot"))
             }
-            GradientKind::Exact => exact(&Snapshot::build_like(self.mdp, &zeta, self.last.borrow().as_ref()))?,
-            GradientKind::Fd => {
-                fd_gradient(&zeta, self.fd_step, |z| self.value(z, Some(solution.warm())).map(|r| r.0))?
-            }
-        };
-        let warm = match solution {
-            Solution::Ssp(sol) => sol.pi,
-            Solution::Horizon(sol) => sol.tail.pi,
-        };
-        Ok(Evaluated { value, grad, warm })
+            GradientKind::Exact => exact(&Snapshot::build_like(self.mdp, zeta, self.last.borrow().as_ref())),
+            GradientKind::Fd => fd_gradient(zeta, self.fd_step, |z| self.value(z, Some(solution.warm())).map(|r| r.0)),
+        }
     }
 }
 
@@ -277,12 +278,13 @@ mod tests {
                 let solved = obj.solve(&zeta, None).unwrap();
                 assert_eq!(solved.value.to_bits(), eager.value.to_bits());
                 assert_eq!(solved.warm(), &eager.warm[..]);
-                let at_once = obj.gradient(solved).unwrap();
-                let solved = obj.solve(&zeta, None).unwrap();
+                let at_once = obj.gradient(&solved).unwrap();
+                let solved_again = obj.solve(&zeta, None).unwrap();
                 obj.solve(&other, None).unwrap();
-                let later = obj.gradient(solved).unwrap();
-                assert_eq!(bits(&at_once), bits(&eager), "{form:?} {kind:?}");
-                assert_eq!(bits(&later), bits(&eager), "{form:?} {kind:?}, after another solve");
+                let later = obj.gradient(&solved_again).unwrap();
+                let finished = |grad| Evaluated { value: solved.value, grad, warm: solved.warm().to_vec() };
+                assert_eq!(bits(&finished(at_once)), bits(&eager), "{form:?} {kind:?}");
+                assert_eq!(bits(&finished(later)), bits(&eager), "{form:?} {kind:?}, after another solve");
             }
         }
     }

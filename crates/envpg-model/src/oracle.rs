@@ -30,6 +30,7 @@
 //! on generated UAV instances with 2,000 and 10,000 users, warm restarts from the users' k-means
 //! centres reach designs no anneal restart finds, at a fraction of an anneal's cost.
 
+use std::rc::Rc;
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -358,8 +359,8 @@ pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result
 enum Point {
     /// Already evaluated, gradient and all (the level's form check).
     Evaluated(Vec<f64>),
-    /// Solved, gradient pending.
-    Solved(Solved),
+    /// Solved, gradient pending (the solution is also the next solve's warm start).
+    Solved(Rc<Solved>),
 }
 
 /// Anneals one restart from `zeta0` (of kind [`OracleConfig::restart_kind`] given whether the
@@ -444,9 +445,11 @@ pub fn anneal<M: ModelMdp + ?Sized>(
             }
         }
         let obj = if form == Form::Ssp { &ssp_obj } else { &hor_obj };
-        let mut last_warm = warm.clone();
-        // Each solve warm-starts the next, backed-off trials included; the gradient is
-        // computed only where the line search uses it.
+        // Each solve warm-starts the next, backed-off trials included (from the level's own
+        // warm start until one succeeds); the gradient is computed only where the line search
+        // uses it.
+        let mut base = warm.clone();
+        let mut latest: Option<Rc<Solved>> = None;
         let res = minimize_lazy(
             &zeta,
             bounds,
@@ -455,20 +458,19 @@ pub fn anneal<M: ModelMdp + ?Sized>(
                 // minimize_lazy starts at ζ itself: ζ is inside the bounds here (no level noise
                 // below the switch), so its projection changes no bit.
                 Some(e) if z == zeta.as_slice() => {
-                    last_warm = Some(e.warm);
+                    base = Some(e.warm);
                     Some((e.value, Point::Evaluated(e.grad)))
                 }
                 _ => {
-                    let solved = obj.solve(z, last_warm.as_deref()).ok()?;
-                    let w = last_warm.get_or_insert_with(Vec::new);
-                    w.clear();
-                    w.extend_from_slice(solved.warm());
+                    let from = latest.as_deref().map(Solved::warm).or(base.as_deref());
+                    let solved = Rc::new(obj.solve(z, from).ok()?);
+                    latest = Some(Rc::clone(&solved));
                     Some((solved.value, Point::Solved(solved)))
                 }
             },
             |_, point| match point {
                 Point::Evaluated(g) => Some(g),
-                Point::Solved(solved) => obj.gradient(solved).ok().map(|e| e.grad),
+                Point::Solved(solved) => obj.gradient(&solved).ok(),
             },
         );
         let Some(res) = res else {
@@ -476,7 +478,7 @@ pub fn anneal<M: ModelMdp + ?Sized>(
             return Err(obj.value(&zeta, None).err().unwrap_or(ModelError::Invalid("objective undefined".into())));
         };
         zeta = res.x;
-        warm = last_warm;
+        warm = latest.map(|s| s.warm().to_vec()).or(base);
         if alpha > 0.0 {
             j_h = res.f;
         }
