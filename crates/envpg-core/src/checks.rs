@@ -59,6 +59,11 @@ pub fn state_paths<M: ModelMdp + ?Sized>(model: &M, zeta: &[f64]) {
         let (mut next, mut prob, mut cost, mut ends) = (vec![], vec![], vec![], vec![]);
         model.state_outcomes(s, zeta, &mut next, &mut prob, &mut cost, &mut ends);
         assert_eq!(ends.len(), model.valid_actions(s).len(), "s{s}: one end per valid action");
+        // After other states' entries, the same outcomes are appended, ends counting from them.
+        let (mut next2, mut prob2, mut cost2, mut ends2) = (vec![7], vec![1.0], vec![0.5], vec![0, 1]);
+        model.state_outcomes(s, zeta, &mut next2, &mut prob2, &mut cost2, &mut ends2);
+        assert!(next2[1..] == next[..] && prob2[1..] == prob[..] && cost2[1..] == cost[..], "s{s}: appends");
+        assert!(ends2[2..].iter().zip(&ends).all(|(&e2, &e)| e2 == e + 1), "s{s}: ends count the whole of next");
         let cp: Vec<f64> = (0..next.len()).map(|i| (i as f64 * 0.7).sin()).collect();
         let cc: Vec<f64> = (0..next.len()).map(|i| (i as f64 * 1.3).cos()).collect();
         let mut dense = vec![0.0; d];

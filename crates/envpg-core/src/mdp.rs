@@ -203,8 +203,9 @@ pub trait ModelMdp: ParamMdp {
     /// zero too).
     fn outcomes(&self, s: usize, a: usize, zeta: &[f64], grad: bool, out: &mut Outcomes);
 
-    /// Appends the outcomes of every valid action of `s`, in order, to `next`/`prob`/`cost`;
-    /// `ends[k]` receives the running outcome count after action `k`.
+    /// Appends the outcomes of every valid action of `s`, in order, to `next`/`prob`/`cost`,
+    /// and to `ends` the length of `next` after each action. All four may hold other states'
+    /// entries already (the exact evaluator appends state after state): append, never clear.
     ///
     /// The default calls [`ModelMdp::outcomes`] per action; models override it to share work
     /// between the actions of one state.

@@ -95,19 +95,13 @@ impl Snapshot {
             stages: Default::default(),
         };
         snap.out_start.push(0);
-        let mut ends = Vec::new();
+        // The running outcome counts a model appends per action are `out_start` itself.
         for s in 0..n {
-            ends.clear();
-            let first = snap.next.len();
-            mdp.state_outcomes(s, zeta, &mut snap.next, &mut snap.prob, &mut snap.cost, &mut ends);
-            debug_assert_eq!(ends.len(), snap.sa_start[s + 1] - snap.sa_start[s]);
-            snap.out_start.extend_from_slice(&ends);
-            let mut lo = first;
-            for &hi in &ends {
-                snap.rbar.push((lo..hi).map(|o| snap.prob[o] * snap.cost[o]).sum());
-                lo = hi;
-            }
+            mdp.state_outcomes(s, zeta, &mut snap.next, &mut snap.prob, &mut snap.cost, &mut snap.out_start);
+            debug_assert_eq!(snap.out_start.len(), snap.sa_start[s + 1] + 1, "one end per valid action of {s}");
         }
+        let (prob, cost) = (&snap.prob, &snap.cost);
+        snap.rbar.extend(snap.out_start.windows(2).map(|w| (w[0]..w[1]).map(|o| prob[o] * cost[o]).sum::<f64>()));
         let same_support = |l: &Snapshot| {
             l.out_start == snap.out_start
                 && l.next == snap.next
