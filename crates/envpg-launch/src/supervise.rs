@@ -8,6 +8,7 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use anyhow::{Result, anyhow, bail};
+use envpg_transport::SHM_DIR;
 use iceoryx2::prelude::*;
 
 use crate::roles::EXIT_PROTOCOL;
@@ -191,9 +192,6 @@ pub(crate) fn describe(s: &ExitStatus) -> String {
     }
 }
 
-/// Where iceoryx2 keeps the run's shared memory.
-const SHM_DIR: &str = "/dev/shm";
-
 /// A process of the run killed by SIGBUS touched shared memory that `/dev/shm` could not back
 /// (tmpfs hands out segments lazily and faults when full: Docker's default is 64 MB). That is
 /// the machine's limit, not a bug of the run: an input error (exit 2) saying where, how full
@@ -251,6 +249,15 @@ fn drain_lines(rx: &mpsc::Receiver<String>, out: &mut Outcome, progress: &mut im
 /// Runs the learner and workers of `l` to completion; `progress` gets the learner's JSON lines.
 pub fn supervise(l: &Launch, mut progress: impl FnMut(&serde_json::Value)) -> Result<Outcome> {
     let run = RunFile::load(&l.dir)?;
+    // First the segments of processes that died creating them: cleaning up their dead nodes
+    // would otherwise wait for them without end.
+    let unfinished = envpg_transport::remove_unfinished_segments();
+    if !unfinished.is_empty() {
+        eprintln!(
+            "removed {} shared-memory segment(s) left empty by a process that died creating them",
+            unfinished.len()
+        );
+    }
     let mut out = Outcome { stale_removed: remove_stale_nodes(), ..Default::default() };
     if out.stale_removed > 0 {
         eprintln!(

@@ -59,6 +59,10 @@ fn port_err(port: &'static str, service: &str, e: impl std::fmt::Debug) -> Trans
 
 fn node<S: Service>(name: &str, signals: SignalHandlingMode) -> Result<Node<S>, TransportError> {
     let node_name = NodeName::new(name).map_err(|e| TransportError::Node(format!("{e:?}")))?;
+    // Creating a node cleans up dead ones, which hangs on a segment its creator never sized.
+    for path in crate::remove_unfinished_segments() {
+        tracing::warn!(path = %path.display(), "removed a shared-memory segment whose creator died before sizing it");
+    }
     NodeBuilder::new()
         .name(&node_name)
         .signal_handling_mode(signals)

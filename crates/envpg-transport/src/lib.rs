@@ -9,7 +9,9 @@
 //!
 //! Each end also holds a *listener* woken by the other side's *notifier* once per message, so
 //! both sides block in a WaitSet instead of spinning. Operations return
-//! [`TransportError`]s that say which port of which service failed.
+//! [`TransportError`]s that say which port of which service failed. Before creating its node,
+//! each end removes the shared memory of processes that died while creating it
+//! ([`remove_unfinished_segments`]): iceoryx2 would otherwise wait for it without end.
 //!
 //! Data flow: learner `publish_weights` + `assign` → worker `latest_weights` + `take_tasks` →
 //! rollouts → worker `publish_episode` → learner `receive_episodes`.
@@ -48,7 +50,9 @@
 
 mod ends;
 mod error;
+mod unfinished;
 
 pub use ends::{LearnerEnd, LinkSizes, WorkerEnd, quiet_iceoryx2_logs};
 pub use error::TransportError;
 pub use iceoryx2::prelude::{ipc, local};
+pub use unfinished::{SETTLE, SHM_DIR, remove_unfinished_in, remove_unfinished_segments};
