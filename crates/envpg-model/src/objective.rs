@@ -42,10 +42,15 @@ pub struct Objective<'a, M: ?Sized> {
     pub fd_step: f64,
     /// The last snapshot, whose component decomposition the next one reuses.
     last: std::cell::RefCell<Option<Snapshot>>,
-    /// How many snapshots have been stored in `last`: tells [`Objective::gradient`] whether
-    /// `last` is still its point's.
+    /// This objective among all (see `generation`).
+    id: u64,
+    /// How many snapshots have been stored in `last`: with `id`, tells [`Objective::gradient`]
+    /// whether `last` is still its point's.
     generation: std::cell::Cell<u64>,
 }
+
+/// Source of [`Objective`] ids.
+static OBJECTIVES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 impl<M: ?Sized> std::fmt::Debug for Objective<'_, M> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -65,8 +70,8 @@ pub struct Solved {
     pub value: f64,
     zeta: Vec<f64>,
     solution: Solution,
-    /// The objective's snapshot generation this solution was computed on.
-    generation: u64,
+    /// The objective and its snapshot generation this solution was computed on.
+    on: (u64, u64),
 }
 
 #[derive(Debug, Clone)]
@@ -121,16 +126,14 @@ impl<'a, M: ModelMdp + ?Sized> Objective<'a, M> {
             gradient: GradientKind::Exact,
             fd_step: 1e-6,
             last: Default::default(),
+            id: OBJECTIVES.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             generation: Default::default(),
         }
     }
 
     /// `J_H(ζ)` and the warm-start policy.
     pub fn value(&self, zeta: &[f64], warm: Option<&[f64]>) -> Result<(f64, Vec<f64>), ModelError> {
-        let snap = self.snapshot(zeta);
-        let out = self.value_at(&snap, warm);
-        self.keep(snap);
-        out
+        self.solve(zeta, warm).map(|s| (s.value, s.into_warm()))
     }
 
     fn keep(&self, snap: Snapshot) {
@@ -140,19 +143,6 @@ impl<'a, M: ModelMdp + ?Sized> Objective<'a, M> {
 
     fn snapshot(&self, zeta: &[f64]) -> Snapshot {
         Snapshot::build_like(self.mdp, zeta, self.last.borrow().as_ref())
-    }
-
-    fn value_at(&self, snap: &Snapshot, warm: Option<&[f64]>) -> Result<(f64, Vec<f64>), ModelError> {
-        match self.form {
-            Form::Ssp => {
-                let sol = solve_soft_retry(snap, self.alpha, warm)?;
-                Ok((sol.j, sol.pi))
-            }
-            Form::Horizon(h) => {
-                let sol = solve_horizon_retry(snap, self.alpha, h, warm)?;
-                Ok((sol.j, sol.tail.pi))
-            }
-        }
     }
 
     /// `J_H(ζ)`, its gradient and the warm-start policy.
@@ -176,19 +166,20 @@ impl<'a, M: ModelMdp + ?Sized> Objective<'a, M> {
             Solution::Ssp(sol) => sol.j,
             Solution::Horizon(sol) => sol.j,
         };
-        Ok(Solved { value, zeta: zeta.to_vec(), solution, generation: self.generation.get() })
+        Ok(Solved { value, zeta: zeta.to_vec(), solution, on: (self.id, self.generation.get()) })
     }
 
-    /// `∇ζ J_H` at a point [`Objective::solve`]d by this objective. The exact gradient reads
-    /// the snapshot the solve kept (rebuilt if this objective has built another since).
+    /// `∇ζ J_H` at a point [`Objective::solve`]d by this objective (or another of the same
+    /// model). The exact gradient reads the snapshot the solve kept, rebuilt if this objective
+    /// has built another since.
     pub fn gradient(&self, solved: &Solved) -> Result<Vec<f64>, ModelError> {
-        let Solved { zeta, solution, generation, .. } = solved;
+        let Solved { zeta, solution, on, .. } = solved;
         let exact = |snap: &Snapshot| match solution {
             Solution::Ssp(sol) => corollary_gradient(self.mdp, zeta, snap, sol),
             Solution::Horizon(sol) => horizon_gradient(self.mdp, zeta, snap, sol),
         };
         match self.gradient {
-            GradientKind::Exact if *generation == self.generation.get() => {
+            GradientKind::Exact if *on == (self.id, self.generation.get()) => {
                 exact(self.last.borrow().as_ref().expect("solve keeps its snapshot"))
             }
             GradientKind::Exact => exact(&Snapshot::build_like(self.mdp, zeta, self.last.borrow().as_ref())),
@@ -257,8 +248,8 @@ mod tests {
     }
 
     /// Solving first and finishing the gradient later gives `value_grad`'s bits, also when the
-    /// objective has solved at another point in between (its snapshot is then rebuilt), with
-    /// either kind of gradient.
+    /// objective has solved at another point in between or another objective finishes it (the
+    /// snapshot is then rebuilt), with either kind of gradient.
     #[test]
     fn a_gradient_finished_after_the_solve_gives_value_grads_bits() {
         let env = envpg_envs::registry().load("uav271", &[("kappa".into(), 0.9)]).unwrap();
@@ -282,9 +273,13 @@ mod tests {
                 let solved_again = obj.solve(&zeta, None).unwrap();
                 obj.solve(&other, None).unwrap();
                 let later = obj.gradient(&solved_again).unwrap();
+                let mut another = Objective::new(model, 0.4, form);
+                another.gradient = kind;
+                let elsewhere = another.gradient(&solved_again).unwrap();
                 let finished = |grad| Evaluated { value: solved.value, grad, warm: solved.warm().to_vec() };
                 assert_eq!(bits(&finished(at_once)), bits(&eager), "{form:?} {kind:?}");
                 assert_eq!(bits(&finished(later)), bits(&eager), "{form:?} {kind:?}, after another solve");
+                assert_eq!(bits(&finished(elsewhere)), bits(&eager), "{form:?} {kind:?}, by another objective");
             }
         }
     }
