@@ -81,6 +81,13 @@ enum Solution {
 }
 
 impl Solution {
+    fn j(&self) -> f64 {
+        match self {
+            Solution::Ssp(sol) => sol.j,
+            Solution::Horizon(sol) => sol.j,
+        }
+    }
+
     fn warm(&self) -> &[f64] {
         match self {
             Solution::Ssp(sol) => &sol.pi,
@@ -162,11 +169,7 @@ impl<'a, M: ModelMdp + ?Sized> Objective<'a, M> {
         };
         self.keep(snap);
         let solution = solution?;
-        let value = match &solution {
-            Solution::Ssp(sol) => sol.j,
-            Solution::Horizon(sol) => sol.j,
-        };
-        Ok(Solved { value, zeta: zeta.to_vec(), solution, on: (self.id, self.generation.get()) })
+        Ok(Solved { value: solution.j(), zeta: zeta.to_vec(), solution, on: (self.id, self.generation.get()) })
     }
 
     /// `∇ζ J_H` at a point [`Objective::solve`]d by this objective (or another of the same

@@ -26,7 +26,7 @@ pub fn remove_unfinished_segments() -> Vec<PathBuf> {
 
 /// [`remove_unfinished_segments`] in `dir`, counting a file abandoned once it has been empty and
 /// write-only for `settle` (by its modification time; a younger one is waited for, then looked
-/// at again). Files of other users and files that cannot be read are left alone.
+/// at again). Other users' files, and files whose metadata cannot be read, are left alone.
 pub fn remove_unfinished_in(dir: &Path, settle: Duration) -> Vec<PathBuf> {
     let mut removed = Vec::new();
     let Ok(entries) = std::fs::read_dir(dir) else { return removed };
