@@ -64,6 +64,15 @@ pub struct OracleArgs {
     /// in units of the instance's length scale [default: 0.001].
     #[arg(long)]
     perturb: Option<f64>,
+    /// Kicks after the restarts (basin hopping): warm restarts from the best design so far,
+    /// moved by Gaussian noise, two per round, each round from the best design after the one
+    /// before [default: 6 with the portfolio, 0 otherwise].
+    #[arg(long)]
+    kicks: Option<usize>,
+    /// Standard deviation of the smallest kick, in units of the instance's length scale;
+    /// kicks cycle through 1×, 2× and 4× this.
+    #[arg(long, default_value_t = 0.01)]
+    kick_scale: f64,
     /// Threads for restarts [default: available cores].
     #[arg(long)]
     threads: Option<usize>,
@@ -129,6 +138,8 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
     if let Some(x) = a.perturb {
         cfg.perturb = x;
     }
+    cfg.kicks = a.kicks;
+    cfg.kick_scale = a.kick_scale;
     if let Some(t) = a.threads {
         cfg.threads = t.max(1);
     }
@@ -144,21 +155,23 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
     let out = run_oracle(net, &cfg).context("oracle failed")?;
     let best = &out.restarts[out.best];
     println!(
-        "oracle  instance={} env={} {} restarts={} seed={}",
+        "oracle  instance={} env={} {} restarts={} kicks={} seed={}",
         env.title,
         env.name,
         env.params_text(),
         cfg.restarts,
+        out.restarts.len() - cfg.restarts,
         cfg.seed
     );
     for r in &out.restarts {
+        let from = r.from.map(|f| format!(" from {f}")).unwrap_or_default();
         println!(
-            "  restart {:>2} ({:?}): J = {:.6}  J_H = {:.6}  ssp_fallbacks = {}  {:.2}s",
+            "  restart {:>2} ({:?}{from}): J = {:.6}  J_H = {:.6}  ssp_fallbacks = {}  {:.2}s",
             r.index, r.kind, r.j, r.j_h, r.ssp_fallbacks, r.seconds
         );
     }
     println!(
-        "best J = {:.6} (restart {}), reached by {:.0}% of restarts (within {:.0e}), {:.2}s",
+        "best J = {:.6} (restart {}), reached by {:.0}% of the independent restarts (within {:.0e}), {:.2}s",
         best.j,
         out.best,
         100.0 * out.fraction_best,

@@ -29,6 +29,11 @@
 //! ([`ParamMdp::clustered_design`](envpg_core::ParamMdp::clustered_design)) where it has them:
 //! on generated UAV instances with 2,000 and 10,000 users, warm restarts from the users' k-means
 //! centres reach designs no anneal restart finds, at a fraction of an anneal's cost.
+//!
+//! A portfolio then *kicks* (basin hopping, [`OracleConfig::kicks`]): warm restarts from the best
+//! design so far moved by Gaussian noise, in rounds of [`KICKS_PER_ROUND`]; a kick replaces the
+//! best design only if it is better by more than [`KICK_GAIN`]. At 10,000 users the best design
+//! often lies in a basin next to the best restart's that no independent restart reaches.
 
 use std::rc::Rc;
 use std::sync::OnceLock;
@@ -72,6 +77,9 @@ pub enum RestartKind {
     Anneal,
     /// Warm start from ζ₀.
     Warm,
+    /// Warm start from the best design of the restarts so far, moved by Gaussian noise
+    /// ([`OracleConfig::kicks`]).
+    Kick,
 }
 
 /// Oracle settings. [`OracleConfig::for_env`] gives the defaults.
@@ -110,7 +118,22 @@ pub struct OracleConfig {
     pub threads: usize,
     /// Polish at α = 0 after the last level.
     pub polish: bool,
+    /// Kicks after the restarts (basin hopping): warm restarts from the best design found so
+    /// far, moved by Gaussian noise first, [`KICKS_PER_ROUND`] at a time, each round from the
+    /// best design after the one before. `None`: [`DEFAULT_KICKS`] with a portfolio, none
+    /// otherwise.
+    pub kicks: Option<usize>,
+    /// Standard deviation of kick `k`'s noise: `kick_scale · 2^(k mod 3)` in units of the
+    /// instance's length scale.
+    pub kick_scale: f64,
 }
+
+/// Kicks of a portfolio run unless [`OracleConfig::kicks`] says otherwise.
+pub const DEFAULT_KICKS: usize = 6;
+
+/// Kicks started from the same best design: a round is a fixed number, so that the designs (and
+/// the result) do not depend on the thread count; two keep two threads busy.
+pub const KICKS_PER_ROUND: usize = 2;
 
 impl OracleConfig {
     /// Defaults scaled to the environment ([`ModelMdp::oracle_hints`]): a hot start at 10× its
@@ -136,6 +159,8 @@ impl OracleConfig {
             basin_tol: 1e-4,
             threads: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
             polish: true,
+            kicks: None,
+            kick_scale: 0.01,
         }
     }
 
@@ -167,6 +192,9 @@ impl OracleConfig {
         if !(self.perturb.is_finite() && self.perturb >= 0.0) {
             return bad(format!("perturb must be finite and >= 0, got {}", self.perturb));
         }
+        if !(self.kick_scale.is_finite() && self.kick_scale > 0.0) {
+            return bad(format!("kick_scale must be finite and > 0, got {}", self.kick_scale));
+        }
         if let Some(z) = &self.init {
             model.zeta_space().check(z).map_err(|e| ModelError::Invalid(format!("init: {e}")))?;
         }
@@ -175,10 +203,11 @@ impl OracleConfig {
 
     /// The kind of restart `r`: `init` (if any) is restart 0 and starts warm; with a mixed
     /// strategy the first other restart anneals; `Auto` is a portfolio for a `deterministic`
-    /// model and mixed otherwise.
+    /// model and mixed otherwise; restarts from `restarts` on are kicks.
     pub fn restart_kind(&self, r: usize, deterministic: bool) -> RestartKind {
         let first_free = usize::from(self.init.is_some());
         match (self.strategy, r) {
+            (_, r) if r >= self.restarts => RestartKind::Kick,
             (_, 0) if self.init.is_some() => RestartKind::Warm,
             (Strategy::Anneal, _) => RestartKind::Anneal,
             (Strategy::Warm, _) => RestartKind::Warm,
@@ -193,6 +222,11 @@ impl OracleConfig {
     /// Whether restarts form a portfolio (see [`Strategy::Portfolio`]).
     fn portfolio(&self, deterministic: bool) -> bool {
         self.strategy == Strategy::Portfolio || (self.strategy == Strategy::Auto && deterministic)
+    }
+
+    /// The number of kicks after the restarts ([`OracleConfig::kicks`]).
+    pub fn kick_count(&self, deterministic: bool) -> usize {
+        self.kicks.unwrap_or(if self.portfolio(deterministic) { DEFAULT_KICKS } else { 0 })
     }
 
     /// The cooling factor of restart `r`: `cooling`, except for the faster anneal restarts of a
@@ -216,7 +250,7 @@ impl OracleConfig {
         let mut out = Vec::new();
         let mut a = match kind {
             RestartKind::Anneal => self.alpha0,
-            RestartKind::Warm => self.warm_alpha0,
+            RestartKind::Warm | RestartKind::Kick => self.warm_alpha0,
         };
         while a > self.alpha_min * (1.0 + 1e-12) {
             out.push(a);
@@ -251,8 +285,11 @@ pub struct Level {
 pub struct Restart {
     /// Restart index.
     pub index: usize,
-    /// Anneal or warm.
+    /// Anneal, warm or kick.
     pub kind: RestartKind,
+    /// For a kick: the restart whose design it moved.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub from: Option<usize>,
     /// Temperature factor per level.
     pub cooling: f64,
     /// Initial design.
@@ -280,9 +317,11 @@ pub struct Restart {
 pub struct OracleOutcome {
     /// All restarts, by index.
     pub restarts: Vec<Restart>,
-    /// Index of the best restart (lowest J, then lowest index).
+    /// Index of the best restart (lowest J, then lowest index; a kick only if better by more than
+    /// [`KICK_GAIN`]).
     pub best: usize,
-    /// Fraction of restarts whose J is within `basin_tol` of the best.
+    /// Fraction of the restarts before the kicks whose J is within `basin_tol` of the best
+    /// (kicks start next to a good design, so they are not counted).
     pub fraction_best: f64,
     /// Hard-optimal policy of the best design, per state–action pair.
     #[serde(skip)]
@@ -318,41 +357,97 @@ pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result
             checked(r, clustered.unwrap_or_else(|| zeta0(r)))
         }))
         .collect::<Result<_, _>>()?;
-    let threads = cfg.threads.clamp(1, cfg.restarts);
-    // Restarts cost from a fraction to several times one another (a slow anneal, then warm
-    // starts and faster anneals), so each thread takes the next restart not yet started rather
-    // than a fixed share. A restart depends only on its index, so results do not depend on
-    // which thread ran it.
-    let next = AtomicUsize::new(0);
-    let results: Vec<OnceLock<Result<Restart, ModelError>>> = (0..cfg.restarts).map(|_| OnceLock::new()).collect();
-    std::thread::scope(|scope| {
-        for _ in 0..threads {
-            scope.spawn(|| {
-                loop {
-                    let r = next.fetch_add(1, Ordering::Relaxed);
-                    if r >= cfg.restarts {
-                        break;
-                    }
-                    let _ = results[r].set(anneal(model, cfg, r, &zeta0s[r], &streams, deterministic));
-                }
-            });
+    let mut restarts = run_restarts(model, cfg, 0, &zeta0s, &streams, deterministic)?;
+    // Kicks: rounds of warm restarts from the best design so far, each moved by noise of one
+    // of three scales (a design a little off the best one often descends into a better basin
+    // nearby; on large UAV instances the independent restarts rarely reach it).
+    let kicks = cfg.kick_count(deterministic);
+    let length = cfg_length(model);
+    let space = model.zeta_space();
+    let mut k = 0;
+    while k < kicks {
+        let from = best_of(&restarts, cfg.restarts);
+        let round: Vec<Vec<f64>> = (k..kicks.min(k + KICKS_PER_ROUND))
+            .map(|k| {
+                let r = cfg.restarts + k;
+                let sd = cfg.kick_scale * length * f64::from(1u32 << (k % 3));
+                let noise = Normal::new(0.0, sd).expect("validated kick scale");
+                let mut rng = streams.stream(Purpose::Oracle, r as u64, 1);
+                let mut z: Vec<f64> = restarts[from].zeta.iter().map(|z| z + noise.sample(&mut rng)).collect();
+                space.project(&mut z);
+                z
+            })
+            .collect();
+        let first = cfg.restarts + k;
+        for mut r in run_restarts(model, cfg, first, &round, &streams, deterministic)? {
+            r.from = Some(from);
+            restarts.push(r);
         }
-    });
-    let restarts: Vec<Restart> =
-        results.into_iter().map(|r| r.into_inner().expect("every restart ran")).collect::<Result<_, _>>()?;
-    let best = (0..restarts.len())
-        .min_by(|&a, &b| restarts[a].j.total_cmp(&restarts[b].j).then(a.cmp(&b)))
-        .expect("at least one restart");
+        k += round.len();
+    }
+    let best = best_of(&restarts, cfg.restarts);
     let jbest = restarts[best].j;
-    let hits = restarts.iter().filter(|r| r.j <= jbest * (1.0 + cfg.basin_tol)).count();
+    let independent = &restarts[..cfg.restarts];
+    let hits = independent.iter().filter(|r| r.j <= jbest * (1.0 + cfg.basin_tol)).count();
     let (_, policy, _) = optimal_greedy(model, &restarts[best].zeta)?;
     Ok(OracleOutcome {
-        fraction_best: hits as f64 / restarts.len() as f64,
+        fraction_best: hits as f64 / independent.len() as f64,
         best,
         restarts,
         policy,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// A kick replaces the best design only if its J is lower by more than this, relative: a kick
+/// that descends back into the same basin ends within rounding of it, and must not take its place.
+pub const KICK_GAIN: f64 = 1e-9;
+
+/// The best of `restarts`, whose first `independent` are not kicks: among those, lowest J, then
+/// lowest index; then each kick in turn if it is better by more than [`KICK_GAIN`].
+fn best_of(restarts: &[Restart], independent: usize) -> usize {
+    let mut best = (0..independent.min(restarts.len()))
+        .min_by(|&a, &b| restarts[a].j.total_cmp(&restarts[b].j).then(a.cmp(&b)))
+        .expect("at least one restart");
+    for (i, r) in restarts.iter().enumerate().skip(independent) {
+        let jb = restarts[best].j;
+        if r.j < jb - KICK_GAIN * jb.abs() {
+            best = i;
+        }
+    }
+    best
+}
+
+/// Runs restarts `first`, `first + 1`, … from `zeta0s` on up to `cfg.threads` threads.
+/// Restarts cost from a fraction to several times one another (a slow anneal, then warm starts
+/// and faster anneals), so each thread takes the next restart not yet started rather than a
+/// fixed share. A restart depends only on its index, so results do not depend on which thread
+/// ran it.
+fn run_restarts<M: ModelMdp + ?Sized>(
+    model: &M,
+    cfg: &OracleConfig,
+    first: usize,
+    zeta0s: &[Vec<f64>],
+    streams: &Streams,
+    deterministic: bool,
+) -> Result<Vec<Restart>, ModelError> {
+    let n = zeta0s.len();
+    let next = AtomicUsize::new(0);
+    let results: Vec<OnceLock<Result<Restart, ModelError>>> = (0..n).map(|_| OnceLock::new()).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..cfg.threads.clamp(1, n.max(1)) {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    if i >= n {
+                        break;
+                    }
+                    let _ = results[i].set(anneal(model, cfg, first + i, &zeta0s[i], streams, deterministic));
+                }
+            });
+        }
+    });
+    results.into_iter().map(|r| r.into_inner().expect("every restart ran")).collect()
 }
 
 /// What a level's line search needs to finish the gradient at a point it accepts.
@@ -395,7 +490,7 @@ pub fn anneal<M: ModelMdp + ?Sized>(
     // Warm restarts use the SSP form wherever it exists; anneal restarts only below the switch.
     let alpha_switch = match kind {
         RestartKind::Anneal => cfg.alpha_switch,
-        RestartKind::Warm => f64::INFINITY,
+        RestartKind::Warm | RestartKind::Kick => f64::INFINITY,
     };
     let cooling = cfg.restart_cooling(index, deterministic);
     let mut alphas = cfg.schedule(kind, cooling);
@@ -497,6 +592,7 @@ pub fn anneal<M: ModelMdp + ?Sized>(
     Ok(Restart {
         index,
         kind,
+        from: None,
         cooling,
         zeta0: zeta0.to_vec(),
         zeta,
@@ -615,7 +711,7 @@ mod tests {
         // uav (κ = 1): warm restarts from the users' k-means centres, anneals from random ζ₀.
         let uav = envpg_envs::registry().load("uav271", &[]).unwrap();
         let model = uav.model().unwrap();
-        let cfg = OracleConfig { restarts: 3, threads: 2, ..OracleConfig::for_env(model) };
+        let cfg = OracleConfig { restarts: 3, threads: 2, kicks: Some(0), ..OracleConfig::for_env(model) };
         let out = run_oracle(model, &cfg).unwrap();
         let kinds: Vec<_> = out.restarts.iter().map(|r| r.kind).collect();
         assert_eq!(kinds, [RestartKind::Anneal, RestartKind::Warm, RestartKind::Anneal]);
@@ -645,6 +741,7 @@ mod tests {
         let model = env.model().unwrap();
         let run = |threads| run_oracle(model, &OracleConfig { restarts: 5, threads, ..OracleConfig::for_env(model) });
         let one = run(1).unwrap();
+        assert_eq!(one.restarts.len(), 5 + DEFAULT_KICKS, "the default kicks run too");
         for threads in [2, 3] {
             let many = run(threads).unwrap();
             assert_eq!(many.best, one.best);
@@ -652,5 +749,61 @@ mod tests {
                 assert_eq!((a.index, &a.zeta, a.j.to_bits()), (b.index, &b.zeta, b.j.to_bits()), "{threads} threads");
             }
         }
+    }
+
+    #[test]
+    fn kicks_start_near_the_best_design_so_far_and_never_lose_it() {
+        let env = flpo();
+        let model = env.model().unwrap();
+        let base = OracleConfig { restarts: 3, threads: 1, ..OracleConfig::for_env(model) };
+        let plain = run_oracle(model, &OracleConfig { kicks: Some(0), ..base.clone() }).unwrap();
+        let kicked = run_oracle(model, &OracleConfig { kicks: Some(5), ..base.clone() }).unwrap();
+        assert_eq!(plain.restarts.len(), 3);
+        assert_eq!(kicked.restarts.len(), 8);
+        // The restarts before the kicks are untouched, bit for bit.
+        for (a, b) in plain.restarts.iter().zip(&kicked.restarts) {
+            assert_eq!((a.kind, &a.zeta, a.j.to_bits(), a.from), (b.kind, &b.zeta, b.j.to_bits(), b.from));
+        }
+        // Rounds of two (the last one short), each from the best design when the round began.
+        let length = cfg_length(model);
+        for (k, r) in kicked.restarts[3..].iter().enumerate() {
+            assert_eq!((r.index, r.kind), (3 + k, RestartKind::Kick));
+            let round_start = 3 + k / KICKS_PER_ROUND * KICKS_PER_ROUND;
+            let from = r.from.expect("a kick names its origin");
+            assert_eq!(from, best_of(&kicked.restarts[..round_start], 3), "kick {k}");
+            model.zeta_space().check(&r.zeta0).unwrap();
+            let moved = r.zeta0.iter().zip(&kicked.restarts[from].zeta).map(|(a, b)| (a - b).powi(2)).sum::<f64>();
+            let sd = base.kick_scale * length * f64::from(1u32 << (k % 3));
+            let d = r.zeta0.len() as f64;
+            // Projection only shortens the move; 5 sd² · d bounds a χ²_d draw with ample margin.
+            assert!(moved > 0.0 && moved < 5.0 * sd * sd * d, "kick {k}: moved {moved}, sd {sd}");
+        }
+        let (jk, jp) = (kicked.restarts[kicked.best].j, plain.restarts[plain.best].j);
+        assert!(jk <= jp);
+        // A kick is the best only if it is better beyond rounding.
+        if kicked.best >= 3 {
+            assert!(jk < jp * (1.0 - KICK_GAIN));
+        } else {
+            assert_eq!(kicked.best, plain.best);
+        }
+        // The fraction at the best counts the independent restarts only.
+        let jbest = kicked.restarts[kicked.best].j;
+        let hits = plain.restarts.iter().filter(|r| r.j <= jbest * (1.0 + base.basin_tol)).count();
+        assert_eq!(kicked.fraction_best, hits as f64 / 3.0);
+    }
+
+    #[test]
+    fn kicks_are_off_outside_a_portfolio_unless_asked_for() {
+        let env = flpo();
+        let model = env.model().unwrap();
+        let cfg = OracleConfig { restarts: 2, ..OracleConfig::for_env(model) };
+        assert_eq!(cfg.kick_count(true), DEFAULT_KICKS);
+        assert_eq!(cfg.kick_count(false), 0, "auto on a stochastic model is mixed");
+        assert_eq!(OracleConfig { strategy: Strategy::Warm, ..cfg.clone() }.kick_count(true), 0);
+        assert_eq!(OracleConfig { strategy: Strategy::Warm, kicks: Some(2), ..cfg.clone() }.kick_count(true), 2);
+        let warm = run_oracle(model, &OracleConfig { strategy: Strategy::Warm, ..cfg.clone() }).unwrap();
+        assert_eq!(warm.restarts.len(), 2);
+        let bad = OracleConfig { kick_scale: f64::NAN, ..cfg };
+        assert!(bad.validate(model).unwrap_err().to_string().contains("kick_scale"));
     }
 }
