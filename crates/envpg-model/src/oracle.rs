@@ -364,26 +364,22 @@ pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result
     let kicks = cfg.kick_count(deterministic);
     let length = cfg_length(model);
     let space = model.zeta_space();
-    let mut k = 0;
-    while k < kicks {
+    for k0 in (0..kicks).step_by(KICKS_PER_ROUND) {
         let from = best_of(&restarts, cfg.restarts);
-        let round: Vec<Vec<f64>> = (k..kicks.min(k + KICKS_PER_ROUND))
+        let round: Vec<Vec<f64>> = (k0..kicks.min(k0 + KICKS_PER_ROUND))
             .map(|k| {
-                let r = cfg.restarts + k;
                 let sd = cfg.kick_scale * length * f64::from(1u32 << (k % 3));
                 let noise = Normal::new(0.0, sd).expect("validated kick scale");
-                let mut rng = streams.stream(Purpose::Oracle, r as u64, 1);
-                let mut z: Vec<f64> = restarts[from].zeta.iter().map(|z| z + noise.sample(&mut rng)).collect();
-                space.project(&mut z);
+                let mut rng = streams.stream(Purpose::Oracle, (cfg.restarts + k) as u64, 1);
+                let mut z = restarts[from].zeta.clone();
+                jitter(&mut z, &noise, &mut rng, space);
                 z
             })
             .collect();
-        let first = cfg.restarts + k;
-        for mut r in run_restarts(model, cfg, first, &round, &streams, deterministic)? {
+        for mut r in run_restarts(model, cfg, cfg.restarts + k0, &round, &streams, deterministic)? {
             r.from = Some(from);
             restarts.push(r);
         }
-        k += round.len();
     }
     let best = best_of(&restarts, cfg.restarts);
     let jbest = restarts[best].j;
@@ -397,6 +393,14 @@ pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result
         policy,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// Adds a draw of `noise` to each coordinate of `zeta`, in order, and projects it into `space`.
+fn jitter(zeta: &mut [f64], noise: &Normal<f64>, rng: &mut impl rand::Rng, space: &envpg_core::ZetaSpace) {
+    for z in zeta.iter_mut() {
+        *z += noise.sample(rng);
+    }
+    space.project(zeta);
 }
 
 /// A kick replaces the best design only if its J is lower by more than this, relative: a kick
@@ -508,10 +512,7 @@ pub fn anneal<M: ModelMdp + ?Sized>(
         ssp_obj.alpha = alpha;
         hor_obj.alpha = alpha;
         if alpha > alpha_switch && cfg.perturb > 0.0 {
-            for z in zeta.iter_mut() {
-                *z += noise.sample(&mut rng);
-            }
-            space.project(&mut zeta);
+            jitter(&mut zeta, &noise, &mut rng, space);
         }
         let mut form = if alpha > alpha_switch { horizon } else { Form::Ssp };
         // The level's first evaluation, when the form check below already made it.
