@@ -209,6 +209,7 @@ fn ipc_workers(
         stall_timeout_s: 60,
         listen: None,
         tensorboard: None,
+        passes: 1,
     };
     run.save(dir)?;
     let mut children: Vec<std::process::Child> = (0..workers)

@@ -28,6 +28,7 @@ mod in_process;
 mod log;
 mod metrics;
 mod multi_host;
+mod passes;
 mod program;
 mod roles;
 mod run_dir;
@@ -94,6 +95,12 @@ struct LaunchArgs {
     /// Continue the run in DIR from its last checkpoint (other options are taken from DIR).
     #[arg(long, value_name = "DIR")]
     resume: Option<PathBuf>,
+    /// Passes of Algorithm 1: each pass after the first starts from the design of the best pass
+    /// so far and trains anew; the best pass is the result. Passes are ranked model-free, by
+    /// their designs' and greedy policies' sampled cost on common episodes (8× the polish's
+    /// episodes per estimate). A way out of a poor basin, at N times the run's cost.
+    #[arg(long, default_value_t = 1)]
+    passes: usize,
     /// Extra real compute per environment step in the workers, in microseconds (benchmarks).
     #[arg(long, default_value_t = 0)]
     emulator_cost_us: u64,
@@ -302,7 +309,12 @@ fn is_interrupt(e: &anyhow::Error) -> bool {
 
 /// An interrupted run says where it stands and how to continue it (on stderr, before the
 /// error itself).
-fn with_resume_hint(e: anyhow::Error, run: &RunFile, dir: &std::path::Path) -> anyhow::Error {
+fn with_resume_hint(
+    e: anyhow::Error,
+    run: &RunFile,
+    dir: &std::path::Path,
+    resume_dir: &std::path::Path,
+) -> anyhow::Error {
     if !is_interrupt(&e) {
         return e;
     }
@@ -313,7 +325,7 @@ fn with_resume_hint(e: anyhow::Error, run: &RunFile, dir: &std::path::Path) -> a
             c.k,
             run.spec.config.iterations,
             RunFile::checkpoint_path(dir).display(),
-            dir.display()
+            resume_dir.display()
         ),
         Err(c) => eprintln!("no checkpoint could be kept: {c}"),
     }
@@ -356,6 +368,11 @@ fn default_runs_dir() -> Result<PathBuf> {
 
 fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Result<()> {
     if launch.bench {
+        if launch.passes != 1 {
+            return Err(
+                InputError("--passes does not apply to --bench (it measures throughput, not designs)".into()).into()
+            );
+        }
         if let Some(p) = &launch.bench_out {
             envpg_core::io::check_writable(p).map_err(|e| InputError(format!("--bench-out: {e}")))?;
         }
@@ -377,10 +394,16 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
             let run = RunFile::load(dir).map_err(|e| InputError(format!("--resume {}: {e:#}", dir.display())))?;
             envpg_core::io::check_writable(&run.out)
                 .map_err(|e| InputError(format!("--resume {}: the run's result file: {e}", dir.display())))?;
-            // A missing, corrupt or foreign checkpoint is found here, before any process starts.
-            let checkpoint =
-                run.load_checkpoint(dir).map_err(|e| InputError(format!("--resume {}: {e}", dir.display())))?;
-            (dir.clone(), run, Some(checkpoint))
+            if run.passes > 1 {
+                // Each pass has a directory of its own; passes::run finds where to continue.
+                passes::check_resumable(&run, dir)?;
+                (dir.clone(), run, None)
+            } else {
+                // A missing, corrupt or foreign checkpoint is found here, before any process starts.
+                let checkpoint =
+                    run.load_checkpoint(dir).map_err(|e| InputError(format!("--resume {}: {e}", dir.display())))?;
+                (dir.clone(), run, Some(checkpoint))
+            }
         }
         None => {
             // Everything that goes wrong while turning arguments into a run is the user's input.
@@ -406,6 +429,9 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
                     return Err(InputError("--listen needs the distributed mode, not --in-process".into()).into());
                 }
                 multi_host::check_listen(endpoint)?;
+            }
+            if launch.passes == 0 {
+                return Err(InputError("--passes must be at least 1".into()).into());
             }
             if launch.stall_timeout_s == 0 {
                 return Err(InputError("--stall-timeout-s must be at least 1".into()).into());
@@ -438,6 +464,7 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
                 stall_timeout_s: launch.stall_timeout_s,
                 listen: launch.listen.clone(),
                 tensorboard,
+                passes: launch.passes,
             };
             run.save(&dir)?;
             (dir, run, None)
@@ -447,24 +474,66 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
     if !launch.quiet {
         eprintln!("run directory: {}", dir.display());
     }
-    let mut live = metrics::Metrics::open(&dir, run.tensorboard.as_deref(), resume.as_ref().map(|c| c.k))
+    if run.passes > 1 {
+        return passes::run(&run, &dir, launch.resume.is_some(), &launch, registry);
+    }
+    let j = train_pass(&run, &dir, resume, &launch, registry, &Pass::only(&dir))?;
+    if !launch.quiet {
+        println!(
+            "J = {}  → {}  (run directory {})",
+            j.map_or("inf".into(), |j| format!("{j:.6}")),
+            run.out.display(),
+            dir.display()
+        );
+    }
+    Ok(())
+}
+
+/// Which pass of a run [`train_pass`] trains, for its progress bar and its resume hint.
+pub(crate) struct Pass<'a> {
+    /// "pass 2/3 " (empty for a one-pass run).
+    label: String,
+    /// The directory `--resume` takes to continue the run.
+    resume_dir: &'a std::path::Path,
+}
+
+impl<'a> Pass<'a> {
+    fn only(dir: &'a std::path::Path) -> Self {
+        Self { label: String::new(), resume_dir: dir }
+    }
+}
+
+/// Trains the run described by `run` in `dir` (from `resume`'s checkpoint, if given) with
+/// learner and workers as processes or threads, streaming its progress to the bar and the live
+/// metrics; the result is written to `run.out` and `dir`. Returns the exact J, when the
+/// environment has a model.
+fn train_pass(
+    run: &RunFile,
+    dir: &std::path::Path,
+    resume: Option<envpg_protocol::Checkpoint>,
+    launch: &LaunchArgs,
+    registry: &Registry,
+    pass: &Pass<'_>,
+) -> Result<Option<f64>> {
+    let mut live = metrics::Metrics::open(dir, run.tensorboard.as_deref(), resume.as_ref().map(|c| c.k))
         .map_err(|e| InputError(format!("live metrics: {e:#}")))?;
     let bar = progress_bar(run.spec.config.iterations as u64, launch.quiet);
+    let label = &pass.label;
     let mut train = || -> Result<Option<f64>> {
         Ok(if launch.in_process {
-            let checkpoint = Some(run.checkpoint_policy(&dir));
+            let checkpoint = Some(run.checkpoint_policy(dir));
             let env = run.spec.load(registry).map_err(|e| InputError(format!("{e:#}")))?;
-            let (result, _) = in_process::run(&run, &env, checkpoint, resume.clone(), |p| {
+            let (result, _) = in_process::run(run, &env, checkpoint, resume.clone(), |p| {
                 bar.set_position(p.k + 1);
-                bar.set_message(message(p.alpha, p.j_h_estimate, p.j_exact, p.transitions_per_s));
+                bar.set_message(format!("{label}{}", message(p.alpha, p.j_h_estimate, p.j_exact, p.transitions_per_s)));
                 live.record(&metrics::ProgressLine::from(p));
                 true
             })?;
-            run_dir::save_result(&result, &run.out, &dir)?;
+            run_dir::save_result(&result, &run.out, dir)?;
             result.j
         } else {
             let l = supervise::Launch {
-                dir: dir.clone(),
+                dir: dir.to_path_buf(),
                 // The learner process reads (and checks) the checkpoint again itself.
                 resume: resume.is_some(),
                 worker_protocol: launch.worker_protocol_version,
@@ -473,7 +542,7 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
             let outcome = supervise::supervise(&l, |v| {
                 if let Ok(p) = serde_json::from_value::<metrics::ProgressLine>(v.clone()) {
                     bar.set_position(p.k + 1);
-                    bar.set_message(message(p.alpha, p.j_h, p.j, p.tps));
+                    bar.set_message(format!("{label}{}", message(p.alpha, p.j_h, p.j, p.tps)));
                     live.record(&p);
                 }
             })?;
@@ -485,23 +554,15 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
                 if let Some(d) = details.as_object_mut() {
                     d.insert("bridge".into(), bridge);
                 }
-                run_dir::save_result(&result, &run.out, &dir)?;
+                run_dir::save_result(&result, &run.out, dir)?;
             }
             outcome.done.as_ref().and_then(|d| d.get("J")).and_then(|j| j.as_f64())
         })
     };
     let j = train().map_err(|e| {
         bar.abandon();
-        with_resume_hint(e, &run, &dir)
+        with_resume_hint(e, run, dir, pass.resume_dir)
     })?;
     bar.finish_and_clear();
-    if !launch.quiet {
-        println!(
-            "J = {}  → {}  (run directory {})",
-            j.map_or("inf".into(), |j| format!("{j:.6}")),
-            run.out.display(),
-            dir.display()
-        );
-    }
-    Ok(())
+    Ok(j)
 }

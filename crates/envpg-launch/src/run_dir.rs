@@ -33,6 +33,18 @@ pub struct RunFile {
     /// Where TensorBoard event files go (`--tensorboard`), besides `metrics.csv`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tensorboard: Option<PathBuf>,
+    /// Passes of Algorithm 1 (`--passes`); each pass above one runs in `pass-P/` of the run
+    /// directory, with a `run.json` of its own.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub passes: usize,
+}
+
+fn one() -> usize {
+    1
+}
+
+fn is_one(n: &usize) -> bool {
+    *n == 1
 }
 
 fn default_stall() -> u64 {

@@ -71,3 +71,16 @@ def test_the_run_directory_keeps_metrics_and_the_result(runs_dir):
     rows = (r.run_dir / "metrics.csv").read_text().splitlines()
     assert len(rows) == 1 + SHORT["iterations"]
     assert json.loads((r.run_dir / "result.json").read_text())["J"] == r.J
+
+
+def test_passes_keep_each_pass_in_its_directory_and_the_best_as_the_result(envpg_launch, tmp_path, runs_dir):
+    cli = cli_run(envpg_launch, tmp_path, "--instance", "flpo-n10m4", "--workers", "2", "--seed", "2",
+                  "--iterations", "30", "--polish-iterations", "2", "--passes", "2")
+    r = envpg.train("flpo-n10m4", seed=2, iterations=30, polish_iterations=2, passes=2, progress=False)
+    same_result(r.raw, cli)
+    runs = r.raw["details"]["passes"]["runs"]
+    assert [p["pass"] for p in runs] == [1, 2]
+    assert runs[1]["zeta0"] == runs[0]["zeta"]
+    for p in (1, 2):
+        rows = (r.run_dir / f"pass-{p}" / "metrics.csv").read_text().splitlines()
+        assert len(rows) == 1 + 30

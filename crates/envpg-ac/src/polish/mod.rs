@@ -43,12 +43,14 @@
 //! neither.
 
 mod improve;
+mod rank;
 mod sampled;
 
 use envpg_core::{ParamMdp, Purpose, Streams, ZetaSpace};
 pub use improve::{PolicyProposal, improve_policy};
 use rand::RngExt;
 use rand_distr::StandardNormal;
+pub use rank::{RANKING_EPISODES, RankScore, rank_designs};
 use serde::{Deserialize, Serialize};
 
 /// Settings of the polish (copied from [`crate::AcConfig`]).
@@ -354,7 +356,7 @@ mod tests {
     use envpg_model::{Snapshot, evaluate};
 
     /// A 20-user, 3-UAV instance at κ = 0.85.
-    fn tiny() -> UavNetwork {
+    pub(super) fn tiny() -> UavNetwork {
         tiny_at(0.85)
     }
 
@@ -373,7 +375,7 @@ mod tests {
         UavNetwork::new(inst, kappa, 100.0).unwrap()
     }
 
-    fn exact_j(net: &UavNetwork, action: &[usize], zeta: &[f64]) -> f64 {
+    pub(super) fn exact_j(net: &UavNetwork, action: &[usize], zeta: &[f64]) -> f64 {
         let sets = ActionSets::new(net);
         let mut pi = vec![0.0; sets.n_pairs()];
         for s in 0..sets.n_states() {
@@ -386,11 +388,11 @@ mod tests {
 
     /// Every user and UAV sends to the destination's nearest UAV chain: here simply "UAV 0"
     /// from users and "destination" from UAVs — a proper policy for any design.
-    fn policy(net: &UavNetwork) -> Vec<usize> {
+    pub(super) fn policy(net: &UavNetwork) -> Vec<usize> {
         (0..net.n_states()).map(|s| if s < net.n_users() { 0 } else { net.n_uav() }).collect()
     }
 
-    fn settings(iterations: usize) -> PolishSettings {
+    pub(super) fn settings(iterations: usize) -> PolishSettings {
         PolishSettings {
             iterations,
             episodes: 512,

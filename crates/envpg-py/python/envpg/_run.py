@@ -138,10 +138,15 @@ class _Progress:
             done = self.stop.wait(0.2)
             try:
                 if bar is None:
-                    total = json.loads((self.run_dir / "run.json").read_text())["spec"]["config"]["iterations"]
+                    run = json.loads((self.run_dir / "run.json").read_text())
+                    total = run["spec"]["config"]["iterations"] * run.get("passes", 1)
                     bar = self.tqdm(total=total, desc="envpg", unit="it")
-                with open(self.run_dir / "metrics.csv") as f:
-                    rows = sum(1 for _ in f) - 1
+                # A run of several passes (``passes=N``) keeps each pass's metrics in pass-P/.
+                rows = 0
+                for metrics in [self.run_dir / "metrics.csv", *self.run_dir.glob("pass-*/metrics.csv")]:
+                    if metrics.exists():
+                        with open(metrics) as f:
+                            rows += max(sum(1 for _ in f) - 1, 0)
                 if rows > shown:
                     bar.update(rows - shown)
                     shown = rows

@@ -1,0 +1,100 @@
+//! `envpg-launch --passes N`: each pass after the first starts from the design of the best pass
+//! before it, the best pass (ranked by sampled cost) is the result and every pass is listed;
+//! the same seed gives the same result in every mode, and `--resume` continues a run whose
+//! last pass did not finish, ending as the uninterrupted run does.
+
+mod support;
+
+use std::path::Path;
+use std::time::Duration;
+
+use support::launch::{comparable, run, small_run, tiny_instance_file, with};
+
+fn passes(r: &serde_json::Value) -> &Vec<serde_json::Value> {
+    r["details"]["passes"]["runs"].as_array().expect("details.passes.runs")
+}
+
+fn load(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn passes_start_from_the_best_design_so_far_and_the_best_is_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let inst = tiny_instance_file(dir.path());
+    let base = with(small_run(&inst, 4, 40), &["--passes", "3"]);
+    let out = dir.path().join("three.json");
+    let run_dir = dir.path().join("run");
+    let o = run(
+        &with(
+            base.clone(),
+            &["--workers", "2", "--run-dir", &run_dir.display().to_string(), "--out", &out.display().to_string()],
+        ),
+        Duration::from_secs(240),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = load(&out);
+    let runs = passes(&r);
+    assert_eq!(runs.len(), 3);
+    let kept = r["details"]["passes"]["kept"].as_u64().unwrap() as usize;
+    // The result is the kept pass's: its design, its J, and the lowest sampled cost.
+    assert_eq!(r["zeta"], runs[kept - 1]["zeta"]);
+    assert_eq!(r["J"], runs[kept - 1]["J"]);
+    let estimate = |i: usize| runs[i]["j_estimate"].as_f64().unwrap();
+    assert!((0..3).all(|i| estimate(kept - 1) <= estimate(i)), "{runs:?}");
+    // Pass 2 starts where pass 1 ended; pass 3 where the better of the two ended. Pass 1 has
+    // the run's seed, the others seeds of their own (a pass from the same design as one before
+    // is not a repeat); the result names the run's.
+    assert_eq!(runs[1]["zeta0"], runs[0]["zeta"]);
+    assert_eq!((r["seed"].as_u64(), runs[0]["seed"].as_u64()), (Some(4), Some(4)));
+    assert!(runs[1]["seed"] != runs[0]["seed"] && runs[2]["seed"] != runs[1]["seed"], "{runs:?}");
+    let better = if estimate(1) < estimate(0) { 1 } else { 0 };
+    assert_eq!(runs[2]["zeta0"], runs[better]["zeta"]);
+    // Each pass is a run of its own, kept in its directory; the run's seconds cover them all.
+    for p in 1..=3 {
+        let own = load(&run_dir.join(format!("pass-{p}/result.json")));
+        assert_eq!(own["zeta"], runs[p - 1]["zeta"]);
+        assert!(run_dir.join(format!("pass-{p}/metrics.csv")).exists());
+    }
+    let seconds: f64 = runs.iter().map(|p| p["seconds"].as_f64().unwrap()).sum();
+    assert!(r["seconds"].as_f64().unwrap() >= seconds);
+
+    // Same seed, same result, in one process with one worker.
+    let single = dir.path().join("single.json");
+    let o = run(
+        &with(base.clone(), &["--in-process", "--workers", "1", "--out", &single.display().to_string()]),
+        Duration::from_secs(240),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(comparable(&single), comparable(&out));
+    assert_eq!(
+        passes(&load(&single)).iter().map(|p| &p["zeta"]).collect::<Vec<_>>(),
+        runs.iter().map(|p| &p["zeta"]).collect::<Vec<_>>()
+    );
+
+    // The last pass lost its result (as if stopped during its polish): --resume reruns it from
+    // its final checkpoint and ends with the same result.
+    std::fs::remove_file(run_dir.join("pass-3/result.json")).unwrap();
+    std::fs::remove_file(&out).unwrap();
+    let o = run(&["--resume".into(), run_dir.display().to_string(), "--quiet".into()], Duration::from_secs(240));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(comparable(&out), comparable(&single));
+    // A corrupt checkpoint of an unfinished pass is refused before anything runs.
+    std::fs::remove_file(run_dir.join("pass-3/result.json")).unwrap();
+    std::fs::write(run_dir.join("pass-3/checkpoint.bin"), b"not a checkpoint").unwrap();
+    let o = run(&["--resume".into(), run_dir.display().to_string(), "--quiet".into()], Duration::from_secs(60));
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("pass-3"), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn zero_passes_and_passes_with_bench_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let inst = tiny_instance_file(dir.path());
+    let out = dir.path().join("r.json").display().to_string();
+    let o = run(&with(small_run(&inst, 1, 5), &["--passes", "0", "--out", &out]), Duration::from_secs(60));
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--passes"));
+    let o = run(&with(small_run(&inst, 1, 5), &["--passes", "2", "--bench"]), Duration::from_secs(60));
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+}
