@@ -186,12 +186,7 @@ pub fn polish_candidates<E: ParamMdp + Sync + ?Sized>(
     let selection = PolishSettings { episodes: 4 * s.episodes, ..*s };
     let episodes = sampled::Episodes::new(streams, SELECTION, selection.episodes);
     let scores = on_two_threads(&screened, |(z, a, _)| sampled::sampled_cost(env, a, z, &selection, &episodes));
-    let kept = (0..scores.len())
-        .min_by(|&a, &b| {
-            let (ka, kb) = (scores[a].key(), scores[b].key());
-            ka.0.cmp(&kb.0).then(ka.1.cmp(&kb.1)).then(ka.2.total_cmp(&kb.2))
-        })
-        .expect("starts");
+    let kept = (0..scores.len()).min_by(|&a, &b| scores[a].rank(&scores[b])).expect("starts");
     let (z, a, _) = &screened[kept];
     let (z, a, mut report) = polish_run(env, a, z, s, streams, s.screen_iterations as u64);
     report.zeta_before = starts[0].0.clone();

@@ -44,12 +44,8 @@ pub fn rank_designs<E: ParamMdp + Sync + ?Sized>(
     let settings = PolishSettings { episodes: RANKING_EPISODES * s.episodes.max(1), z: 0.0, ..*s };
     let episodes = sampled::Episodes::new(streams, RANKING, settings.episodes);
     let samples = on_two_threads(designs, |(z, a)| sampled::sampled_cost(env, a, z, &settings, &episodes));
-    let best = (0..samples.len())
-        .min_by(|&a, &b| {
-            let (ka, kb) = (samples[a].key(), samples[b].key());
-            ka.0.cmp(&kb.0).then(ka.1.cmp(&kb.1)).then(ka.2.total_cmp(&kb.2)).then(a.cmp(&b))
-        })
-        .expect("designs");
+    // min_by keeps the first of equal elements: ties go to the earlier design.
+    let best = (0..samples.len()).min_by(|&a, &b| samples[a].rank(&samples[b])).expect("designs");
     let scores = samples
         .iter()
         .map(|x| RankScore { j_estimate: x.cost, capped: x.capped, loops: x.loops(), transitions: x.steps })

@@ -120,6 +120,13 @@ impl Sampled {
         (self.loops(), if self.loops() { self.capped } else { 0 }, self.cost)
     }
 
+    /// The order of [`key`](Sampled::key): looping samples last, then by cost (a total order,
+    /// for choosing the best of several samples).
+    pub(super) fn rank(&self, other: &Sampled) -> std::cmp::Ordering {
+        let (a, b) = (self.key(), other.key());
+        a.0.cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.total_cmp(&b.2))
+    }
+
     /// Whether this sample ranks before `other`.
     pub(super) fn beats(&self, other: &Sampled) -> bool {
         self.key().partial_cmp(&other.key()) == Some(std::cmp::Ordering::Less)
