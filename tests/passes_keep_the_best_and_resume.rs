@@ -1,5 +1,6 @@
-//! `envpg-launch --passes N`: each pass after the first starts from the design of the best pass
-//! before it, the best pass (ranked by sampled cost) is the result and every pass is listed;
+//! `envpg-launch --passes N`: each pass trains from a start of its own (seed and ζ₀; with
+//! `--pass-start best`, the design of the best pass before it), the best pass (ranked by sampled
+//! cost) is the result and every pass is listed;
 //! the same seed gives the same result in every mode, and `--resume` continues a run whose
 //! last pass did not finish, ending as the uninterrupted run does.
 
@@ -19,7 +20,7 @@ fn load(path: &Path) -> serde_json::Value {
 }
 
 #[test]
-fn passes_start_from_the_best_design_so_far_and_the_best_is_kept() {
+fn passes_start_anew_and_the_best_is_kept() {
     let dir = tempfile::tempdir().unwrap();
     let inst = tiny_instance_file(dir.path());
     let base = with(small_run(&inst, 4, 40), &["--passes", "3"]);
@@ -42,14 +43,12 @@ fn passes_start_from_the_best_design_so_far_and_the_best_is_kept() {
     assert_eq!(r["J"], runs[kept - 1]["J"]);
     let estimate = |i: usize| runs[i]["j_estimate"].as_f64().unwrap();
     assert!((0..3).all(|i| estimate(kept - 1) <= estimate(i)), "{runs:?}");
-    // Pass 2 starts where pass 1 ended; pass 3 where the better of the two ended. Pass 1 has
-    // the run's seed, the others seeds of their own (a pass from the same design as one before
-    // is not a repeat); the result names the run's.
-    assert_eq!(runs[1]["zeta0"], runs[0]["zeta"]);
+    // Pass 1 has the run's seed, the others seeds of their own, and so starts of their own
+    // (random ζ₀ here); the result names the run's seed.
     assert_eq!((r["seed"].as_u64(), runs[0]["seed"].as_u64()), (Some(4), Some(4)));
-    assert!(runs[1]["seed"] != runs[0]["seed"] && runs[2]["seed"] != runs[1]["seed"], "{runs:?}");
-    let better = if estimate(1) < estimate(0) { 1 } else { 0 };
-    assert_eq!(runs[2]["zeta0"], runs[better]["zeta"]);
+    let distinct = |key: &str| (0..3).all(|i| (0..i).all(|j| runs[i][key] != runs[j][key]));
+    assert!(distinct("seed") && distinct("zeta0"), "{runs:?}");
+    assert_eq!(r["details"]["passes"]["start"], "fresh");
     // Each pass is a run of its own, kept in its directory; the run's seconds cover them all.
     for p in 1..=3 {
         let own = load(&run_dir.join(format!("pass-{p}/result.json")));
@@ -88,7 +87,43 @@ fn passes_start_from_the_best_design_so_far_and_the_best_is_kept() {
 }
 
 #[test]
-fn zero_passes_and_passes_with_bench_are_refused() {
+fn with_pass_start_best_each_pass_starts_from_the_best_design_so_far() {
+    let dir = tempfile::tempdir().unwrap();
+    let inst = tiny_instance_file(dir.path());
+    let out = dir.path().join("best.json");
+    let args = with(
+        small_run(&inst, 4, 40),
+        &[
+            "--passes",
+            "3",
+            "--pass-start",
+            "best",
+            "--in-process",
+            "--workers",
+            "1",
+            "--out",
+            &out.display().to_string(),
+        ],
+    );
+    let o = run(&args, Duration::from_secs(240));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = load(&out);
+    let runs = passes(&r);
+    assert_eq!(r["details"]["passes"]["start"], "best");
+    // Pass 1 is the fresh run's pass 1; pass 2 starts where pass 1 ended, pass 3 where the
+    // better of the two (by sampled cost) ended, each with a seed of its own.
+    let estimate = |i: usize| runs[i]["j_estimate"].as_f64().unwrap();
+    assert_eq!(runs[1]["zeta0"], runs[0]["zeta"]);
+    let better = if estimate(1) < estimate(0) { 1 } else { 0 };
+    assert_eq!(runs[2]["zeta0"], runs[better]["zeta"]);
+    assert!(runs[1]["seed"] != runs[0]["seed"] && runs[2]["seed"] != runs[1]["seed"], "{runs:?}");
+    let kept = r["details"]["passes"]["kept"].as_u64().unwrap() as usize;
+    assert!((0..3).all(|i| estimate(kept - 1) <= estimate(i)), "{runs:?}");
+    assert_eq!(r["zeta"], runs[kept - 1]["zeta"]);
+}
+
+#[test]
+fn zero_passes_passes_with_bench_and_a_pass_start_without_passes_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let inst = tiny_instance_file(dir.path());
     let out = dir.path().join("r.json").display().to_string();
@@ -97,4 +132,9 @@ fn zero_passes_and_passes_with_bench_are_refused() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("--passes"));
     let o = run(&with(small_run(&inst, 1, 5), &["--passes", "2", "--bench"]), Duration::from_secs(60));
     assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    // --pass-start says where later passes start: with one pass it would be silently ignored.
+    let o = run(&with(small_run(&inst, 1, 5), &["--pass-start", "best", "--out", &out]), Duration::from_secs(60));
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--pass-start"));
+    assert!(!Path::new(&out).exists());
 }

@@ -210,6 +210,7 @@ fn ipc_workers(
         listen: None,
         tensorboard: None,
         passes: 1,
+        pass_start: Default::default(),
     };
     run.save(dir)?;
     let mut children: Vec<std::process::Child> = (0..workers)

@@ -95,12 +95,17 @@ struct LaunchArgs {
     /// Continue the run in DIR from its last checkpoint (other options are taken from DIR).
     #[arg(long, value_name = "DIR")]
     resume: Option<PathBuf>,
-    /// Passes of Algorithm 1: each pass after the first starts from the design of the best pass
-    /// so far and trains anew; the best pass is the result. Passes are ranked model-free, by
+    /// Passes of Algorithm 1: each pass trains anew with a seed of its own, from where
+    /// `--pass-start` says; the best pass is the result. Passes are ranked model-free, by
     /// their designs' and greedy policies' sampled cost on common episodes (8× the polish's
     /// episodes per estimate). A way out of a poor basin, at N times the run's cost.
     #[arg(long, default_value_t = 1)]
     passes: usize,
+    /// Where the passes after the first start: `fresh` (the run's `--zeta0`, drawn anew with the
+    /// pass's seed: independent restarts) or `best` (the design of the best pass so far: for a
+    /// run that had not finished improving). Default `fresh`; needs `--passes` 2 or more.
+    #[arg(long, value_enum)]
+    pass_start: Option<passes::PassStart>,
     /// Extra real compute per environment step in the workers, in microseconds (benchmarks).
     #[arg(long, default_value_t = 0)]
     emulator_cost_us: u64,
@@ -433,6 +438,12 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
             if launch.passes == 0 {
                 return Err(InputError("--passes must be at least 1".into()).into());
             }
+            if launch.passes == 1 && launch.pass_start.is_some() {
+                return Err(InputError(
+                    "--pass-start applies to the passes after the first: give --passes 2 or more".into(),
+                )
+                .into());
+            }
             if launch.stall_timeout_s == 0 {
                 return Err(InputError("--stall-timeout-s must be at least 1".into()).into());
             }
@@ -465,6 +476,7 @@ fn run(train: args::TrainArgs, launch: LaunchArgs, registry: &Registry) -> Resul
                 listen: launch.listen.clone(),
                 tensorboard,
                 passes: launch.passes,
+                pass_start: launch.pass_start.unwrap_or_default(),
             };
             run.save(&dir)?;
             (dir, run, None)

@@ -1,9 +1,11 @@
-//! `--passes N`: Algorithm 1 run N times, each pass after the first from the design of the best
-//! pass so far, and the best pass kept — a model-free way out of a poor basin.
+//! `--passes N`: Algorithm 1 run N times, each pass anew with a seed of its own, and the best
+//! pass kept — a model-free way out of a poor basin.
 //!
 //! Pass P trains in `DIR/pass-P/` (a run directory of its own: `run.json`, metrics, log,
-//! checkpoints, `result.json`) with the run's settings, ζ₀ being the design of the best pass
-//! before it, and a seed of its own ([`pass_seed`]). Passes are ranked by
+//! checkpoints, `result.json`) with the run's settings and a seed of its own ([`pass_seed`]).
+//! Where it starts is [`PassStart`]: the run's `--zeta0`, drawn anew with the pass's seed where
+//! it is drawn (`fresh`, independent passes), or the design of the best pass before it
+//! (`best`). Passes are ranked by
 //! [`envpg_ac::polish::rank_designs`]: each finished pass's design and greedy policy sampled on
 //! the same episodes, the lowest mean cost first — the environment's sampler only, never its
 //! model. The kept pass's result file, with every pass listed in `details.passes`, is the run's
@@ -15,14 +17,27 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use envpg_ac::Zeta0;
-use envpg_ac::polish::{RankScore, rank_designs};
+use envpg_ac::polish::{PolishSettings, RankScore, rank_designs};
 use envpg_core::policy::actions_from_rows;
-use envpg_core::{Purpose, Registry, ResultFile, Streams};
+use envpg_core::{LoadedEnv, Purpose, Registry, ResultFile, Streams};
 use rand::Rng;
 use serde_json::json;
 
 use crate::run_dir::RunFile;
 use crate::{InputError, LaunchArgs, Pass, train_pass};
+
+/// Where the passes after the first start (`--pass-start`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PassStart {
+    /// From the run's `--zeta0`, drawn anew with the pass's seed (`random`, `clustered`):
+    /// independent restarts, for a run that ends in a poor basin.
+    #[default]
+    Fresh,
+    /// From the design of the best pass so far: a run that had not finished improving
+    /// continues from there.
+    Best,
+}
 
 /// `DIR/pass-P`.
 pub(crate) fn pass_dir(dir: &Path, pass: usize) -> PathBuf {
@@ -47,17 +62,16 @@ pub(crate) fn check_resumable(top: &RunFile, dir: &Path) -> Result<()> {
 /// Stream key of the passes' seeds.
 const PASS_SEEDS: u64 = 0x7061_7373;
 
-/// The seed of pass `p` (from 1) of a run with seed `seed`: the run's own for pass 1, for the
-/// others a draw from the run seed's stream keyed by the pass. A pass that starts from the
-/// same design as one before it (the best design did not change) is then a new sample, not
-/// a repeat of that pass.
+/// The seed of pass `p` (from 1) of a run with seed `seed`: the run's own for pass 1 (so pass 1
+/// is the one-pass run, bit for bit), for the others a draw from the run seed's stream keyed by
+/// the pass.
 pub(crate) fn pass_seed(seed: u64, p: usize) -> u64 {
     if p == 1 { seed } else { Streams::new(seed).stream(Purpose::Other, PASS_SEEDS, p as u64).next_u64() }
 }
 
 /// The description of pass `p` of `top`: its own run id (service names) and seed
-/// ([`pass_seed`]), ζ₀ `zeta0` (pass 1: the run's), its result in its directory, no further
-/// passes.
+/// ([`pass_seed`]), ζ₀ `zeta0` where given (pass 1: the run's), its result in its directory,
+/// no further passes.
 fn pass_run(top: &RunFile, p: usize, dir: &Path, zeta0: Option<&[f64]>) -> RunFile {
     let mut run = top.clone();
     run.run_id = format!("{}p{p}", top.run_id);
@@ -78,8 +92,7 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
     let settings = top.spec.config.polish();
     let streams = Streams::new(top.spec.seed);
     let mut done: Vec<ResultFile> = Vec::with_capacity(top.passes);
-    let mut ranked: (usize, Vec<RankScore>) = (0, Vec::new());
-    let mut ranking_seconds = 0.0;
+    let mut cost = RankingCost::default();
     for p in 1..=top.passes {
         let pdir = pass_dir(dir, p);
         let copy = RunFile::result_copy_path(&pdir);
@@ -93,8 +106,9 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
                 };
                 (run, checkpoint)
             } else {
-                let zeta0 = (p > 1).then(|| done[ranked.0].zeta.as_slice());
-                let run = pass_run(top, p, dir, zeta0);
+                let best = (p > 1 && top.pass_start == PassStart::Best)
+                    .then(|| best_so_far(&env, &done, &settings, &streams, &mut cost));
+                let run = pass_run(top, p, dir, best.as_deref());
                 envpg_core::io::create_private_dir(&pdir)
                     .with_context(|| format!("creating the pass directory {}", pdir.display()))?;
                 run.save(&pdir)?;
@@ -104,21 +118,9 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
             train_pass(&run, &pdir, checkpoint, launch, registry, &Pass { label, resume_dir: dir })?;
         }
         done.push(ResultFile::load(&copy).with_context(|| format!("reading pass {p}'s result"))?);
-        if done.len() > 1 {
-            let started = Instant::now();
-            let designs: Vec<(Vec<f64>, Vec<usize>)> =
-                done.iter().map(|r| (r.zeta.clone(), actions_from_rows(env.sampler(), &r.policy))).collect();
-            ranked = rank_designs(env.sampler(), &designs, &settings, &streams);
-            ranking_seconds += started.elapsed().as_secs_f64();
-        }
     }
-    let result = combine(
-        top.spec.seed,
-        &done,
-        &ranked,
-        ranking_seconds,
-        envpg_ac::polish::RANKING_EPISODES * settings.episodes.max(1),
-    );
+    let ranked = cost.time(|| rank(&env, &done, &settings, &streams));
+    let result = combine(top, &done, &ranked, &cost, envpg_ac::polish::RANKING_EPISODES * settings.episodes.max(1));
     crate::run_dir::save_result(&result, &top.out, dir)?;
     if !launch.quiet {
         let line = |i: usize, r: &ResultFile| {
@@ -143,19 +145,59 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
     Ok(())
 }
 
+/// [`rank_designs`] of the finished passes' designs and greedy policies.
+fn rank(env: &LoadedEnv, done: &[ResultFile], settings: &PolishSettings, streams: &Streams) -> (usize, Vec<RankScore>) {
+    let designs: Vec<(Vec<f64>, Vec<usize>)> =
+        done.iter().map(|r| (r.zeta.clone(), actions_from_rows(env.sampler(), &r.policy))).collect();
+    rank_designs(env.sampler(), &designs, settings, streams)
+}
+
+/// The design of the best of the finished passes (`--pass-start best`), the ranking's cost
+/// added to `cost`.
+fn best_so_far(
+    env: &LoadedEnv,
+    done: &[ResultFile],
+    settings: &PolishSettings,
+    streams: &Streams,
+    cost: &mut RankingCost,
+) -> Vec<f64> {
+    if done.len() == 1 {
+        return done[0].zeta.clone();
+    }
+    let (best, _) = cost.time(|| rank(env, done, settings, streams));
+    done[best].zeta.clone()
+}
+
+/// Time and transitions spent ranking passes, over the whole run.
+#[derive(Default)]
+struct RankingCost {
+    seconds: f64,
+    transitions: u64,
+}
+
+impl RankingCost {
+    fn time(&mut self, f: impl FnOnce() -> (usize, Vec<RankScore>)) -> (usize, Vec<RankScore>) {
+        let started = Instant::now();
+        let ranked = f();
+        self.seconds += started.elapsed().as_secs_f64();
+        self.transitions += ranked.1.iter().map(|s| s.transitions).sum::<u64>();
+        ranked
+    }
+}
+
 /// The run's result: the kept pass's result file, its `seconds` and `details.transitions` the
 /// whole run's (every pass and the ranking), `details.passes` each pass's design, sampled cost
 /// in the ranking, J (scored for the record, not used to rank), time and transitions.
 fn combine(
-    seed: u64,
+    top: &RunFile,
     done: &[ResultFile],
     (kept, scores): &(usize, Vec<RankScore>),
-    ranking_seconds: f64,
+    cost: &RankingCost,
     ranking_episodes: usize,
 ) -> ResultFile {
     let mut result = done[*kept].clone();
     // The run's seed, which names every pass's (each pass's own is listed with it).
-    result.seed = seed;
+    result.seed = top.spec.seed;
     let transitions = |r: &ResultFile| r.details.as_ref().and_then(|d| d.get("transitions")).and_then(|t| t.as_u64());
     let passes: Vec<serde_json::Value> = done
         .iter()
@@ -176,9 +218,8 @@ fn combine(
             })
         })
         .collect();
-    let total: u64 =
-        done.iter().filter_map(transitions).sum::<u64>() + scores.iter().map(|s| s.transitions).sum::<u64>();
-    result.seconds = Some(done.iter().filter_map(|r| r.seconds).sum::<f64>() + ranking_seconds);
+    let total: u64 = done.iter().filter_map(transitions).sum::<u64>() + cost.transitions;
+    result.seconds = Some(done.iter().filter_map(|r| r.seconds).sum::<f64>() + cost.seconds);
     let details = result.details.get_or_insert_with(|| json!({}));
     if let Some(d) = details.as_object_mut() {
         d.insert("transitions".into(), json!(total));
@@ -186,8 +227,9 @@ fn combine(
             "passes".into(),
             json!({
                 "kept": kept + 1,
+                "start": top.pass_start,
                 "ranking_episodes": ranking_episodes,
-                "ranking_seconds": ranking_seconds,
+                "ranking_seconds": cost.seconds,
                 "runs": passes,
             }),
         );

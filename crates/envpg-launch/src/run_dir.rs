@@ -37,6 +37,11 @@ pub struct RunFile {
     /// directory, with a `run.json` of its own.
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub passes: usize,
+    /// Where the passes after the first start (`--pass-start`). A run file without it was
+    /// written before the option, when every later pass started from the best design: a
+    /// resumed run goes on as it began.
+    #[serde(default = "started_from_best")]
+    pub pass_start: crate::passes::PassStart,
 }
 
 fn one() -> usize {
@@ -45,6 +50,10 @@ fn one() -> usize {
 
 fn is_one(n: &usize) -> bool {
     *n == 1
+}
+
+fn started_from_best() -> crate::passes::PassStart {
+    crate::passes::PassStart::Best
 }
 
 fn default_stall() -> u64 {

@@ -75,11 +75,13 @@ def test_the_run_directory_keeps_metrics_and_the_result(runs_dir):
 
 def test_passes_keep_each_pass_in_its_directory_and_the_best_as_the_result(envpg_launch, tmp_path, runs_dir):
     cli = cli_run(envpg_launch, tmp_path, "--instance", "flpo-n10m4", "--workers", "2", "--seed", "2",
-                  "--iterations", "30", "--polish-iterations", "2", "--passes", "2")
-    r = envpg.train("flpo-n10m4", seed=2, iterations=30, polish_iterations=2, passes=2, progress=False)
+                  "--iterations", "30", "--polish-iterations", "2", "--passes", "2", "--pass-start", "best")
+    r = envpg.train("flpo-n10m4", seed=2, iterations=30, polish_iterations=2, passes=2, pass_start="best",
+                    progress=False)
     same_result(r.raw, cli)
     runs = r.raw["details"]["passes"]["runs"]
     assert [p["pass"] for p in runs] == [1, 2]
+    # pass_start="best": the second pass starts where the first ended.
     assert runs[1]["zeta0"] == runs[0]["zeta"]
     for p in (1, 2):
         rows = (r.run_dir / f"pass-{p}" / "metrics.csv").read_text().splitlines()
