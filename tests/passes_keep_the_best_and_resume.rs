@@ -1,6 +1,6 @@
-//! `envpg-launch --passes N`: each pass trains from a start of its own (seed and ζ₀; with
-//! `--pass-start best`, the design of the best pass before it), the best pass (ranked by sampled
-//! cost) is the result and every pass is listed;
+//! `envpg-launch --passes N`: each pass after the first trains with a seed of its own from the
+//! design of the best pass before it (`--pass-start best`, the default) or from a ζ₀ of its own
+//! (`fresh`), the best pass (ranked by sampled cost) is the result and every pass is listed;
 //! the same seed gives the same result in every mode, and `--resume` continues a run whose
 //! last pass did not finish, ending as the uninterrupted run does.
 
@@ -20,10 +20,10 @@ fn load(path: &Path) -> serde_json::Value {
 }
 
 #[test]
-fn passes_start_anew_and_the_best_is_kept() {
+fn fresh_passes_start_anew_and_the_best_is_kept() {
     let dir = tempfile::tempdir().unwrap();
     let inst = tiny_instance_file(dir.path());
-    let base = with(small_run(&inst, 4, 40), &["--passes", "3"]);
+    let base = with(small_run(&inst, 4, 40), &["--passes", "3", "--pass-start", "fresh"]);
     let out = dir.path().join("three.json");
     let run_dir = dir.path().join("run");
     let o = run(
@@ -87,23 +87,13 @@ fn passes_start_anew_and_the_best_is_kept() {
 }
 
 #[test]
-fn with_pass_start_best_each_pass_starts_from_the_best_design_so_far() {
+fn by_default_each_pass_starts_from_the_best_design_so_far() {
     let dir = tempfile::tempdir().unwrap();
     let inst = tiny_instance_file(dir.path());
     let out = dir.path().join("best.json");
     let args = with(
         small_run(&inst, 4, 40),
-        &[
-            "--passes",
-            "3",
-            "--pass-start",
-            "best",
-            "--in-process",
-            "--workers",
-            "1",
-            "--out",
-            &out.display().to_string(),
-        ],
+        &["--passes", "3", "--in-process", "--workers", "1", "--out", &out.display().to_string()],
     );
     let o = run(&args, Duration::from_secs(240));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

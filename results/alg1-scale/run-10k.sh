@@ -3,9 +3,11 @@
 # with 10,000 users and 20 UAVs of results/oracle-scale (instance seed 1): the default preset
 # `uav`, `uav-large`, `uav-large` with four times the episodes or three times the iterations,
 # both presets from the users' k-means centres (`--zeta0 clustered`), and `uav-large` with two
-# passes (`--passes 2`) from either start, against the best design known there. Writes
+# passes (`--passes 2`) from either ζ₀, the second pass from the first pass's design
+# (`--pass-start best`, the default) or from a ζ₀ of its own (`--pass-start fresh`), against the best
+# design known there. Writes
 # alg1-10k-*.json (result files: `envpg evaluate FILE` recomputes each J) and table-10k.md;
-# result files already there are kept. Run from the repository root: bash results/alg1-scale/run-10k.sh (≈ 55 min on 2 cores).
+# result files already there are kept. Run from the repository root: bash results/alg1-scale/run-10k.sh (≈ 65 min on 2 cores).
 set -euo pipefail
 out=results/alg1-scale
 cargo build --release --quiet --bin envpg --bin envpg-launch
@@ -26,8 +28,12 @@ run "$out/alg1-10k-uav-large-e128.json" --preset uav-large --episodes 128 --expl
 run "$out/alg1-10k-uav-large-i6000.json" --preset uav-large --iterations 6000
 run "$out/alg1-10k-uav-clustered.json" --preset uav --zeta0 clustered
 run "$out/alg1-10k-uav-large-clustered.json" --preset uav-large --zeta0 clustered
-run "$out/alg1-10k-uav-large-clustered-passes2.json" --preset uav-large --zeta0 clustered --passes 2
-run "$out/alg1-10k-uav-large-passes2.json" --preset uav-large --passes 2
+run "$out/alg1-10k-uav-large-passes2-fresh.json" --preset uav-large --passes 2 --pass-start fresh
+run "$out/alg1-10k-uav-large-clustered-passes2-fresh.json" --preset uav-large --zeta0 clustered --passes 2 \
+    --pass-start fresh
+run "$out/alg1-10k-uav-large-passes2.json" --preset uav-large --passes 2 --pass-start best
+run "$out/alg1-10k-uav-large-clustered-passes2.json" --preset uav-large --zeta0 clustered --passes 2 \
+    --pass-start best
 python3 - "$out" "$name" <<'PY'
 import glob, json, sys
 out, name = sys.argv[1:]
@@ -46,9 +52,14 @@ with open(f"{out}/table-10k.md", "w") as f:
                                    (f"{out}/alg1-10k-uav-large-i6000.json", "uav-large", "`--iterations 6000`"),
                                    (f"{out}/alg1-10k-uav-clustered.json", "uav", "`--zeta0 clustered`"),
                                    (f"{out}/alg1-10k-uav-large-clustered.json", "uav-large", "`--zeta0 clustered`"),
-                                   (f"{out}/alg1-10k-uav-large-passes2.json", "uav-large", "`--passes 2`"),
+                                   (f"{out}/alg1-10k-uav-large-passes2-fresh.json", "uav-large",
+                                    "`--passes 2 --pass-start fresh`"),
+                                   (f"{out}/alg1-10k-uav-large-clustered-passes2-fresh.json", "uav-large",
+                                    "`--zeta0 clustered --passes 2 --pass-start fresh`"),
+                                   (f"{out}/alg1-10k-uav-large-passes2.json", "uav-large",
+                                    "`--passes 2 --pass-start best`"),
                                    (f"{out}/alg1-10k-uav-large-clustered-passes2.json", "uav-large",
-                                    "`--zeta0 clustered --passes 2`")):
+                                    "`--zeta0 clustered --passes 2 --pass-start best`")):
         r = json.load(open(file))
         before = ((r.get("details") or {}).get("polish") or {}).get("J_before")
         alone = f"{100 * (before / best - 1):+.2f}%" if before else "—"

@@ -101,9 +101,9 @@ struct LaunchArgs {
     /// episodes per estimate). A way out of a poor basin, at N times the run's cost.
     #[arg(long, default_value_t = 1)]
     passes: usize,
-    /// Where the passes after the first start: `fresh` (the run's `--zeta0`, drawn anew with the
-    /// pass's seed: independent restarts) or `best` (the design of the best pass so far: for a
-    /// run that had not finished improving). Default `fresh`; needs `--passes` 2 or more.
+    /// Where the passes after the first start: `best` (the design of the best pass so far: for
+    /// a run that had not finished improving) or `fresh` (the run's `--zeta0`, drawn anew with
+    /// the pass's seed: independent restarts). Default `best`; needs `--passes` 2 or more.
     #[arg(long, value_enum)]
     pass_start: Option<passes::PassStart>,
     /// Extra real compute per environment step in the workers, in microseconds (benchmarks).

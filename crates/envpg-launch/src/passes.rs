@@ -5,7 +5,7 @@
 //! checkpoints, `result.json`) with the run's settings and a seed of its own ([`pass_seed`]).
 //! Where it starts is [`PassStart`]: the run's `--zeta0`, drawn anew with the pass's seed where
 //! it is drawn (`fresh`, independent passes), or the design of the best pass before it
-//! (`best`). Passes are ranked by
+//! (`best`, the default). Passes are ranked by
 //! [`envpg_ac::polish::rank_designs`]: each finished pass's design and greedy policy sampled on
 //! the same episodes, the lowest mean cost first — the environment's sampler only, never its
 //! model. The kept pass's result file, with every pass listed in `details.passes`, is the run's
@@ -26,17 +26,19 @@ use serde_json::json;
 use crate::run_dir::RunFile;
 use crate::{InputError, LaunchArgs, Pass, train_pass};
 
-/// Where the passes after the first start (`--pass-start`).
+/// Where the passes after the first start (`--pass-start`). Measured with two passes
+/// (docs/uav-results.md, "Two passes"): tied at 2,000 users, `best` well ahead at 10,000 users
+/// from random starts, where one pass has not finished improving — hence the default.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum PassStart {
-    /// From the run's `--zeta0`, drawn anew with the pass's seed (`random`, `clustered`):
-    /// independent restarts, for a run that ends in a poor basin.
-    #[default]
-    Fresh,
     /// From the design of the best pass so far: a run that had not finished improving
     /// continues from there.
+    #[default]
     Best,
+    /// From the run's `--zeta0`, drawn anew with the pass's seed (`random`, `clustered`):
+    /// independent restarts, for a run that ends in a poor basin.
+    Fresh,
 }
 
 /// `DIR/pass-P`.

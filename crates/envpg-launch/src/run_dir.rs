@@ -38,9 +38,9 @@ pub struct RunFile {
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub passes: usize,
     /// Where the passes after the first start (`--pass-start`). A run file without it was
-    /// written before the option, when every later pass started from the best design: a
-    /// resumed run goes on as it began.
-    #[serde(default = "started_from_best")]
+    /// written before the option, when every later pass started from the best design (today's
+    /// default).
+    #[serde(default)]
     pub pass_start: crate::passes::PassStart,
 }
 
@@ -50,10 +50,6 @@ fn one() -> usize {
 
 fn is_one(n: &usize) -> bool {
     *n == 1
-}
-
-fn started_from_best() -> crate::passes::PassStart {
-    crate::passes::PassStart::Best
 }
 
 fn default_stall() -> u64 {
