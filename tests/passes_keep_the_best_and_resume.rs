@@ -91,9 +91,20 @@ fn by_default_each_pass_starts_from_the_best_design_so_far() {
     let dir = tempfile::tempdir().unwrap();
     let inst = tiny_instance_file(dir.path());
     let out = dir.path().join("best.json");
+    let run_dir = dir.path().join("run");
     let args = with(
         small_run(&inst, 4, 40),
-        &["--passes", "3", "--in-process", "--workers", "1", "--out", &out.display().to_string()],
+        &[
+            "--passes",
+            "3",
+            "--in-process",
+            "--workers",
+            "1",
+            "--run-dir",
+            &run_dir.display().to_string(),
+            "--out",
+            &out.display().to_string(),
+        ],
     );
     let o = run(&args, Duration::from_secs(240));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -110,6 +121,26 @@ fn by_default_each_pass_starts_from_the_best_design_so_far() {
     let kept = r["details"]["passes"]["kept"].as_u64().unwrap() as usize;
     assert!((0..3).all(|i| estimate(kept - 1) <= estimate(i)), "{runs:?}");
     assert_eq!(r["zeta"], runs[kept - 1]["zeta"]);
+
+    // Resumed during pass 3, the run ends as it did, counting the same rankings' transitions.
+    std::fs::remove_file(run_dir.join("pass-3/result.json")).unwrap();
+    std::fs::remove_file(&out).unwrap();
+    let o = run(&["--resume".into(), run_dir.display().to_string(), "--quiet".into()], Duration::from_secs(240));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let resumed = load(&out);
+    assert_eq!(resumed["zeta"], r["zeta"]);
+    assert_eq!(resumed["J"], r["J"]);
+    assert_eq!(resumed["details"]["transitions"], r["details"]["transitions"]);
+    let without_seconds = |runs: &Vec<serde_json::Value>| {
+        runs.iter()
+            .map(|p| {
+                let mut p = p.clone();
+                p["seconds"] = serde_json::Value::Null;
+                p
+            })
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(without_seconds(passes(&resumed)), without_seconds(runs));
 }
 
 #[test]

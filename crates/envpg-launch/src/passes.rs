@@ -98,6 +98,10 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
     for p in 1..=top.passes {
         let pdir = pass_dir(dir, p);
         let copy = RunFile::result_copy_path(&pdir);
+        // Ranked for every pass, resumed or not (a few milliseconds), so that a resumed run
+        // counts the same rankings as an uninterrupted one.
+        let best = (p > 1 && top.pass_start == PassStart::Best)
+            .then(|| best_so_far(&env, &done, &settings, &streams, &mut cost));
         if !(resuming && copy.exists()) {
             let (run, checkpoint) = if resuming && RunFile::path(&pdir).exists() {
                 let run = RunFile::load(&pdir)?;
@@ -108,8 +112,6 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
                 };
                 (run, checkpoint)
             } else {
-                let best = (p > 1 && top.pass_start == PassStart::Best)
-                    .then(|| best_so_far(&env, &done, &settings, &streams, &mut cost));
                 let run = pass_run(top, p, dir, best.as_deref());
                 envpg_core::io::create_private_dir(&pdir)
                     .with_context(|| format!("creating the pass directory {}", pdir.display()))?;
