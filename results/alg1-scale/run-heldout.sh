@@ -33,14 +33,7 @@ for seed in 9 10 11 12 13 14 15 16; do
     done
 done
 # Committed result files keep what recomputing J needs: history, policy_soft dropped, compact JSON.
-python3 - "$out" <<'PY'
-import glob, json, sys
-for path in glob.glob(f"{sys.argv[1]}/*.json"):
-    r = json.load(open(path))
-    for key in ("history", "policy_soft"):
-        r.pop(key, None)
-    json.dump(r, open(path, "w"), separators=(",", ":"))
-PY
+python3 results/alg1-scale/compact.py "$out"/*.json
 python3 - "$out" <<'PY'
 import json, statistics, sys
 out = sys.argv[1]

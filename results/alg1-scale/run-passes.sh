@@ -25,13 +25,7 @@ for seed in 1 2 3 4 5 6 7 8; do
         ENVPG_RUNS_DIR="$tmp/runs" ./target/release/envpg-launch --instance "$tmp/$name.json" --workers 2 \
             --preset uav-large --passes 2 --pass-start "$start" --seed "$run" --quiet --out "$file" >/dev/null
         # Committed result files keep what recomputing J needs: history, policy_soft dropped.
-        python3 - "$file" <<'PY'
-import json, sys
-r = json.load(open(sys.argv[1]))
-for key in ("history", "policy_soft"):
-    r.pop(key, None)
-json.dump(r, open(sys.argv[1], "w"), separators=(",", ":"))
-PY
+        python3 results/alg1-scale/compact.py "$file"
       done
     done
 done

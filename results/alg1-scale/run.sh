@@ -73,11 +73,4 @@ with open(f"{out}/table.md", "w") as f:
 print(open(f"{out}/table.md").read())
 PY
 # Committed result files keep what recomputing J needs: history, policy_soft dropped, compact JSON.
-python3 - "$out" <<'PY'
-import glob, json, sys
-for path in glob.glob(f"{sys.argv[1]}/*.json"):
-    r = json.load(open(path))
-    for key in ("history", "policy_soft"):
-        r.pop(key, None)
-    json.dump(r, open(path, "w"), separators=(",", ":"))
-PY
+python3 results/alg1-scale/compact.py "$out"/*.json
