@@ -51,10 +51,22 @@ pub fn outcome_derivatives<M: ModelMdp + ?Sized>(model: &M, zeta: &[f64], h: f64
 
 /// The per-state paths ([`ModelMdp::state_outcomes`], [`ModelMdp::accumulate_state_grad`])
 /// against the per-action outcomes, with arbitrary contraction coefficients; every pair's
-/// probabilities sum to 1 and are non-negative.
+/// probabilities sum to 1 and are non-negative; the whole-model expansion
+/// ([`ModelMdp::all_outcomes`]) appends exactly the per-state outcomes, bit for bit.
 pub fn state_paths<M: ModelMdp + ?Sized>(model: &M, zeta: &[f64]) {
     let mut o = Outcomes::default();
     let d = zeta.len();
+    let bits = |x: &[f64]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let (mut next, mut prob, mut cost, mut ends) = (vec![7], vec![1.0], vec![0.5], vec![0, 1]);
+    for s in 0..model.n_states() {
+        model.state_outcomes(s, zeta, &mut next, &mut prob, &mut cost, &mut ends);
+    }
+    let (mut next2, mut prob2, mut cost2, mut ends2) = (vec![7], vec![1.0], vec![0.5], vec![0, 1]);
+    model.all_outcomes(zeta, &mut next2, &mut prob2, &mut cost2, &mut ends2);
+    assert_eq!(next2, next, "all_outcomes: successors");
+    assert_eq!(ends2, ends, "all_outcomes: ends");
+    assert_eq!(bits(&prob2), bits(&prob), "all_outcomes: probabilities");
+    assert_eq!(bits(&cost2), bits(&cost), "all_outcomes: costs");
     for s in 0..model.n_states() {
         let (mut next, mut prob, mut cost, mut ends) = (vec![], vec![], vec![], vec![]);
         model.state_outcomes(s, zeta, &mut next, &mut prob, &mut cost, &mut ends);

@@ -228,6 +228,25 @@ pub trait ModelMdp: ParamMdp {
         }
     }
 
+    /// Appends the outcomes of every state, in state order, exactly as
+    /// [`ModelMdp::state_outcomes`] called for each state in turn would (the same values, bit
+    /// for bit): how the exact evaluator expands a whole model at one ζ.
+    ///
+    /// The default does just that; models override it to share work between states (the UAV
+    /// network computes each position once, not once per hop that reaches it).
+    fn all_outcomes(
+        &self,
+        zeta: &[f64],
+        next: &mut Vec<usize>,
+        prob: &mut Vec<f64>,
+        cost: &mut Vec<f64>,
+        ends: &mut Vec<usize>,
+    ) {
+        for s in 0..self.n_states() {
+            self.state_outcomes(s, zeta, next, prob, cost, ends);
+        }
+    }
+
     /// Adds `Σ_o (cp[o]·∂p_o/∂ζ + cc[o]·∂c_o/∂ζ)` over the outcomes of every valid action of `s`
     /// (in [`ModelMdp::state_outcomes`] order) to `grad`; `prob` are those outcomes'
     /// probabilities at `zeta`, as [`ModelMdp::state_outcomes`] returned them.

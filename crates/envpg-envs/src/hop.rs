@@ -233,6 +233,35 @@ impl HopNetwork {
         });
     }
 
+    /// The outcomes of every state (see `ModelMdp::all_outcomes`). With κ = 1 every hop
+    /// reaches its target: the outcomes are the targets themselves, and each position is
+    /// computed once instead of once per hop that reaches it (per outcome, reading it was
+    /// most of the expansion of a large network).
+    pub fn all_outcomes(
+        &self,
+        zeta: &[f64],
+        next: &mut Vec<usize>,
+        prob: &mut Vec<f64>,
+        cost: &mut Vec<f64>,
+        ends: &mut Vec<usize>,
+    ) {
+        if self.kappa < 1.0 {
+            for s in 0..self.n_states() {
+                self.state_outcomes(s, zeta, next, prob, cost, ends);
+            }
+            return;
+        }
+        let pos: Vec<[f64; 2]> = (0..self.n_states()).map(|s| self.position(s, zeta)).collect();
+        let first = next.len();
+        next.extend_from_slice(&self.targets);
+        prob.resize(prob.len() + self.targets.len(), 1.0);
+        cost.reserve(self.targets.len());
+        for (s, &xs) in pos.iter().enumerate() {
+            cost.extend(self.targets(s).iter().map(|&t| dist2(pos[t], xs)));
+        }
+        ends.extend(first + 1..=next.len());
+    }
+
     /// The gradient contraction of every valid action of `s` (see
     /// `ModelMdp::accumulate_state_grad`).
     pub fn accumulate_state_grad(
@@ -439,8 +468,8 @@ impl HopNetwork {
     }
 }
 
-/// The three model paths of an environment that is a [`HopNetwork`] in its field `hop`
-/// (`outcomes`, `state_outcomes`, `accumulate_state_grad`), for use inside its
+/// The four model paths of an environment that is a [`HopNetwork`] in its field `hop`
+/// (`outcomes`, `state_outcomes`, `all_outcomes`, `accumulate_state_grad`), for use inside its
 /// `impl ModelMdp`: the UAV network and flpo share the kernel, so they share these too.
 macro_rules! hop_model_paths {
     () => {
@@ -457,6 +486,16 @@ macro_rules! hop_model_paths {
             ends: &mut Vec<usize>,
         ) {
             self.hop.state_outcomes(s, zeta, next, prob, cost, ends)
+        }
+        fn all_outcomes(
+            &self,
+            zeta: &[f64],
+            next: &mut Vec<usize>,
+            prob: &mut Vec<f64>,
+            cost: &mut Vec<f64>,
+            ends: &mut Vec<usize>,
+        ) {
+            self.hop.all_outcomes(zeta, next, prob, cost, ends)
         }
         fn accumulate_state_grad(
             &self,

@@ -13,7 +13,7 @@ use envpg_core::ModelMdp;
 
 use crate::error::ModelError;
 use crate::evaluate::{evaluate, mu_dense, visits};
-use crate::horizon::HorizonSolution;
+use crate::horizon::{HorizonSolution, NOT_FIRST_ONLY, Stages};
 use crate::snapshot::Snapshot;
 use crate::soft::SoftSolution;
 
@@ -101,16 +101,26 @@ fn policy_fixed_gradient<M: ModelMdp + ?Sized>(
 
 /// Exact `∇ζ J_H` of the finite-horizon solution: stage visits forward over the reachable
 /// states, the hard tail's visits from the stage-H distribution, one local-derivative pass.
+///
+/// States visited at stage 0 only ([`Stages::first_only`]: the users of the UAV network) get
+/// their visits `W = μ π₀` and successor terms `U = W V₁` straight from the stage-0 policy in the
+/// last pass, the same operations on the same values as through the per-pair tables the other
+/// states accumulate in, so the same bits at a fraction of the memory traffic.
 pub fn horizon_gradient<M: ModelMdp + ?Sized>(
     mdp: &M,
     zeta: &[f64],
     snap: &Snapshot,
     sol: &HorizonSolution,
 ) -> Result<Vec<f64>, ModelError> {
-    let np = snap.n_pairs();
-    let mut w = vec![0.0; np];
-    let mut u = vec![0.0; snap.next.len()];
-    let mut rho = mu_dense(snap);
+    let stages = Stages::of(snap, sol.pi.len());
+    let (first_only, slot) = (&stages.first_only[..], &stages.slot[..]);
+    // Visits and successor terms of the other states, in compact tables: pair `sa` of state
+    // `s` at `slot[s].0 + (sa − first pair of s)`, its outcome `o` at `slot[s].1 + (o − first
+    // outcome of s)`.
+    let mut w = vec![0.0; stages.slots.0];
+    let mut u = vec![0.0; stages.slots.1];
+    let mu = mu_dense(snap);
+    let mut rho = mu.clone();
     let mut rho_next = vec![0.0; snap.n_states];
     // The snapshot's tables as plain slices: read through `snap`, every store into `u` or
     // `rho_next` made the compiler reload their headers (it cannot rule out aliasing), and
@@ -119,22 +129,35 @@ pub fn horizon_gradient<M: ModelMdp + ?Sized>(
     let (sa_start, out_start) = (&snap.sa_start[..], &snap.out_start[..]);
     for (h, pi) in sol.pi.iter().enumerate() {
         let vnext = &sol.v[h + 1][..];
-        rho_next.iter_mut().for_each(|r| *r = 0.0);
+        // `rho_next` held the distribution of stage h − 1 (μ for h = 1), nonzero only at the
+        // states reachable then (every mass added lands on a positive-probability successor or
+        // adds zero): zero those entries, not the whole model.
+        match h {
+            0 => {}
+            1 => snap.mu.iter().for_each(|&(s, _)| rho_next[s] = 0.0),
+            _ => sol.reach[h - 1].iter().for_each(|&s| rho_next[s] = 0.0),
+        }
         let (u, w, rho_h, rho_to) = (&mut u[..], &mut w[..], &rho[..], &mut rho_next[..]);
         let mut at = 0;
         for &s in &sol.reach[h] {
             let pairs = sa_start[s]..sa_start[s + 1];
             let pi_s = &pi[at..at + pairs.len()];
             at += pairs.len();
+            let fused = h == 0 && first_only[s] != NOT_FIRST_ONLY;
+            let (ws, us) = (slot[s].0.wrapping_sub(pairs.start), slot[s].1.wrapping_sub(out_start[pairs.start]));
             for (sa, &p) in pairs.zip(pi_s) {
                 let wh = rho_h[s] * p;
                 if wh == 0.0 {
                     continue;
                 }
-                w[sa] += wh;
+                if !fused {
+                    w[ws.wrapping_add(sa)] += wh;
+                }
                 for o in out_start[sa]..out_start[sa + 1] {
                     let t = next[o];
-                    u[o] += wh * vnext[t];
+                    if !fused {
+                        u[us.wrapping_add(o)] += wh * vnext[t];
+                    }
                     if !terminal[t] {
                         rho_to[t] += gamma * wh * prob[o];
                     }
@@ -148,19 +171,32 @@ pub fn horizon_gradient<M: ModelMdp + ?Sized>(
         if rho_tail[s] == 0.0 {
             continue;
         }
-        for sa in snap.sas(s) {
+        let pairs = snap.sas(s);
+        let (ws, us) = (slot[s].0.wrapping_sub(pairs.start), slot[s].1.wrapping_sub(out_start[pairs.start]));
+        for sa in pairs {
             let wt = rho_tail[s] * sol.tail.pi[sa];
             if wt == 0.0 {
                 continue;
             }
-            w[sa] += wt;
+            w[ws.wrapping_add(sa)] += wt;
             for o in snap.outs(sa) {
-                u[o] += wt * sol.tail.v[snap.next[o]];
+                u[us.wrapping_add(o)] += wt * sol.tail.v[snap.next[o]];
             }
         }
     }
     let mut grad = vec![0.0; zeta.len()];
-    accumulate_local(mdp, zeta, snap, &w, &u, &mut grad);
+    let (pi0, v1) = (sol.pi.first().map_or(&[][..], |p| &p[..]), sol.v.get(1).map_or(&[][..], |v| &v[..]));
+    accumulate_with(mdp, zeta, snap, &mut grad, |s, sa, o| match first_only[s] {
+        NOT_FIRST_ONLY => {
+            let first = sa_start[s];
+            (w[slot[s].0 + sa - first], u[slot[s].1 + o - out_start[first]])
+        }
+        // What the tables would hold: one addition to zero each, or nothing when W = 0.
+        at => {
+            let wh = mu[s] * pi0[at + sa - sa_start[s]];
+            if wh == 0.0 { (0.0, 0.0) } else { (0.0 + wh, 0.0 + wh * v1[next[o]]) }
+        }
+    });
     Ok(grad)
 }
 
@@ -234,4 +270,106 @@ pub fn fd_gradient<E>(zeta: &[f64], h: f64, mut f: impl FnMut(&[f64]) -> Result<
         g[i] = (fp - fm) / (2.0 * h);
     }
     Ok(g)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::horizon::solve_horizon;
+    use envpg_core::ParamMdp;
+
+    /// `∇ζ J_H` of the finite-horizon form with every state's visits and successor terms
+    /// accumulated in whole-model per-pair and per-outcome tables, and every stage
+    /// distribution zeroed in full: the direct reading of the definition.
+    fn horizon_gradient_dense<M: ModelMdp + ?Sized>(
+        mdp: &M,
+        zeta: &[f64],
+        snap: &Snapshot,
+        sol: &HorizonSolution,
+    ) -> Vec<f64> {
+        let mut w = vec![0.0; snap.n_pairs()];
+        let mut u = vec![0.0; snap.next.len()];
+        let mut rho = mu_dense(snap);
+        for (h, pi) in sol.pi.iter().enumerate() {
+            let mut rho_to = vec![0.0; snap.n_states];
+            let mut at = 0;
+            for &s in &sol.reach[h] {
+                for sa in snap.sas(s) {
+                    let wh = rho[s] * pi[at];
+                    at += 1;
+                    if wh == 0.0 {
+                        continue;
+                    }
+                    w[sa] += wh;
+                    for o in snap.outs(sa) {
+                        let t = snap.next[o];
+                        u[o] += wh * sol.v[h + 1][t];
+                        if !snap.terminal[t] {
+                            rho_to[t] += snap.gamma * wh * snap.prob[o];
+                        }
+                    }
+                }
+            }
+            rho = rho_to;
+        }
+        let rho_tail = visits(snap, &sol.tail.pi, &rho).unwrap();
+        for s in 0..snap.n_states {
+            for sa in snap.sas(s) {
+                let wt = rho_tail[s] * sol.tail.pi[sa];
+                if wt == 0.0 {
+                    continue;
+                }
+                w[sa] += wt;
+                for o in snap.outs(sa) {
+                    u[o] += wt * sol.tail.v[snap.next[o]];
+                }
+            }
+        }
+        let mut grad = vec![0.0; zeta.len()];
+        accumulate_local(mdp, zeta, snap, &w, &u, &mut grad);
+        grad
+    }
+
+    /// Reading the visits of the states seen at stage 0 only from the stage-0 policy, keeping
+    /// the other states' terms in compact tables and zeroing only the reached entries of the
+    /// stage distributions changes no bit of the gradient: on the UAV network (users at stage
+    /// 0 only), flpo, aac, and random MDPs whose initial states are visited again later.
+    #[test]
+    fn the_horizon_gradient_gives_the_bits_of_whole_model_tables() {
+        // Whether some initial state is visited again (after stage 0 or in the tail).
+        let check = |model: &dyn ModelMdp, zeta: &[f64], h: usize, what: &str| -> bool {
+            let snap = Snapshot::build(model, zeta);
+            let stages = Stages::of(&snap, h);
+            for alpha in [0.05, 2.0, 300.0] {
+                let sol = solve_horizon(&snap, alpha, h, None).unwrap();
+                let fast = horizon_gradient(model, zeta, &snap, &sol).unwrap();
+                let dense = horizon_gradient_dense(model, zeta, &snap, &sol);
+                let bits = |g: &[f64]| g.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&fast), bits(&dense), "{what}, alpha {alpha}");
+                assert!(dense.iter().any(|&g| g != 0.0), "{what}: a gradient that could differ");
+            }
+            stages.reach[0].iter().any(|&s| stages.first_only[s] == NOT_FIRST_ONLY)
+        };
+        let cases: [(&str, &[(&str, f64)]); 5] = [
+            ("uav271", &[("kappa", 1.0)]),
+            ("uav271", &[("kappa", 0.85)]),
+            ("flpo-n10m4", &[]),
+            ("flpo-n10m4", &[("kappa", 0.9)]),
+            ("aac1800", &[]),
+        ];
+        for (name, params) in cases {
+            let params: Vec<(String, f64)> = params.iter().map(|&(k, v)| (k.to_string(), v)).collect();
+            let env = envpg_envs::registry().load(name, &params).unwrap();
+            let model = env.model().unwrap();
+            let zeta = model.random_design(&mut envpg_core::Streams::new(1).stream(envpg_core::Purpose::Zeta0, 0, 0));
+            check(model, &zeta, model.oracle_hints().horizon, &format!("{name} {params:?}"));
+        }
+        let mut revisited = 0;
+        for seed in 0..8 {
+            let mdp = crate::random::RandomMdp::new(seed, 7, 3, 3, 1.0, true);
+            let zeta = mdp.random_design(&mut envpg_core::Streams::new(seed).stream(envpg_core::Purpose::Zeta0, 0, 0));
+            revisited += usize::from(check(&mdp, &zeta, 4, &format!("random MDP {seed}")));
+        }
+        assert!(revisited > 0, "some random MDP visits an initial state again");
+    }
 }

@@ -43,9 +43,22 @@ pub struct HorizonSolution {
 #[derive(Debug)]
 pub(crate) struct Stages {
     h: usize,
-    reach: Arc<Vec<Vec<usize>>>,
+    pub(crate) reach: Arc<Vec<Vec<usize>>>,
     tail: Vec<bool>,
+    /// For a state reachable at stage 0 only, and not in the tail, the offset of its first pair
+    /// in the stage-0 policy; [`NOT_FIRST_ONLY`] for every other state. Such states (the users
+    /// of the UAV network) are most of a large model, and the gradient reads their visits from
+    /// the stage-0 policy directly instead of from model-sized per-pair tables.
+    pub(crate) first_only: Vec<usize>,
+    /// For every other state, the offsets of its first pair and first outcome in the compact
+    /// per-pair and per-outcome tables the gradient accumulates in; `(pairs, outcomes)` of
+    /// those tables in `slots`.
+    pub(crate) slot: Vec<(usize, usize)>,
+    pub(crate) slots: (usize, usize),
 }
+
+/// [`Stages::first_only`] of a state visited after stage 0, in the tail, or never.
+pub(crate) const NOT_FIRST_ONLY: usize = usize::MAX;
 
 impl Stages {
     fn new(snap: &Snapshot, h: usize) -> Self {
@@ -71,11 +84,30 @@ impl Stages {
                 enter(t, &mut todo);
             }
         }
-        Self { h, reach: Arc::new(reach), tail }
+        let mut first_only = vec![NOT_FIRST_ONLY; snap.n_states];
+        let mut at = 0;
+        for &s in reach.first().into_iter().flatten() {
+            if !tail[s] {
+                first_only[s] = at;
+            }
+            at += snap.sas(s).len();
+        }
+        for &s in reach.iter().skip(1).flatten() {
+            first_only[s] = NOT_FIRST_ONLY;
+        }
+        let mut slot = vec![(NOT_FIRST_ONLY, NOT_FIRST_ONLY); snap.n_states];
+        let mut slots = (0, 0);
+        for s in (0..snap.n_states).filter(|&s| first_only[s] == NOT_FIRST_ONLY) {
+            slot[s] = slots;
+            let pairs = snap.sas(s);
+            slots.0 += pairs.len();
+            slots.1 += snap.out_start[pairs.end] - snap.out_start[pairs.start];
+        }
+        Self { h, reach: Arc::new(reach), tail, first_only, slot, slots }
     }
 
     /// The stages of `snap` for horizon `h`, from its cache when computed for the same `h`.
-    fn of(snap: &Snapshot, h: usize) -> Arc<Self> {
+    pub(crate) fn of(snap: &Snapshot, h: usize) -> Arc<Self> {
         let cached = snap.stages.get_or_init(|| Arc::new(Self::new(snap, h)));
         if cached.h == h { Arc::clone(cached) } else { Arc::new(Self::new(snap, h)) }
     }

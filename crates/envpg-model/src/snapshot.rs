@@ -96,10 +96,8 @@ impl Snapshot {
         };
         snap.out_start.push(0);
         // The running outcome counts a model appends per action are `out_start` itself.
-        for s in 0..n {
-            mdp.state_outcomes(s, zeta, &mut snap.next, &mut snap.prob, &mut snap.cost, &mut snap.out_start);
-            debug_assert_eq!(snap.out_start.len(), snap.sa_start[s + 1] + 1, "one end per valid action of {s}");
-        }
+        mdp.all_outcomes(zeta, &mut snap.next, &mut snap.prob, &mut snap.cost, &mut snap.out_start);
+        assert_eq!(snap.out_start.len(), snap.sa_action.len() + 1, "one end per valid action");
         let (prob, cost) = (&snap.prob, &snap.cost);
         snap.rbar.extend(snap.out_start.windows(2).map(|w| (w[0]..w[1]).map(|o| prob[o] * cost[o]).sum::<f64>()));
         let same_support = |l: &Snapshot| {

@@ -176,7 +176,12 @@ pub(crate) fn solve_soft_within(
                 residual = c.states.iter().enumerate().map(|(i, &s)| (tv[i] - v[s]).abs()).fold(0.0, f64::max);
                 let unchanged = c.states.iter().flat_map(|&s| snap.sas(s)).zip(&before).all(|(sa, &p)| pi[sa] == p);
                 previous = Some(before);
-                if residual <= 1e-14 * (1.0 + vmax) || (alpha == 0.0 && unchanged) {
+                if alpha == 0.0 && unchanged {
+                    // `v` is already exactly the value of the returned policy: it was evaluated
+                    // at this very policy, and backups do not write `v`.
+                    return Ok(());
+                }
+                if residual <= 1e-14 * (1.0 + vmax) {
                     // Re-evaluate so that `v` is exactly the value of the returned policy.
                     eval_component(snap, c, &pi, alpha, &mut v, &local)?;
                     return Ok(());
