@@ -317,10 +317,14 @@ impl HopNetwork {
             if c == 0.0 {
                 continue;
             }
-            let xt = self.position(t, zeta);
+            // One look at where `t` sits gives both its position and its coordinates in ζ.
+            let (xt, it) = match self.places[t] {
+                Place::Fixed(p) => (p, None),
+                Place::Zeta(i) => ([zeta[i], zeta[i + 1]], Some(i)),
+            };
             let gx = 2.0 * c * (xt[0] - xs[0]);
             let gy = 2.0 * c * (xt[1] - xs[1]);
-            if let Some(i) = self.zeta_index(t) {
+            if let Some(i) = it {
                 grad[i] += gx;
                 grad[i + 1] += gy;
             }

@@ -99,7 +99,12 @@ impl Snapshot {
         mdp.all_outcomes(zeta, &mut snap.next, &mut snap.prob, &mut snap.cost, &mut snap.out_start);
         assert_eq!(snap.out_start.len(), snap.sa_action.len() + 1, "one end per valid action");
         let (prob, cost) = (&snap.prob, &snap.cost);
-        snap.rbar.extend(snap.out_start.windows(2).map(|w| (w[0]..w[1]).map(|o| prob[o] * cost[o]).sum::<f64>()));
+        // A pair with one outcome (every pair of a deterministic model) sums that one term:
+        // the same `sum`, without the loop around it.
+        snap.rbar.extend(snap.out_start.windows(2).map(|w| match w[1] - w[0] {
+            1 => std::iter::once(prob[w[0]] * cost[w[0]]).sum::<f64>(),
+            _ => (w[0]..w[1]).map(|o| prob[o] * cost[o]).sum::<f64>(),
+        }));
         let same_support = |l: &Snapshot| {
             l.out_start == snap.out_start
                 && l.next == snap.next
