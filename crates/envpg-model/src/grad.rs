@@ -127,10 +127,11 @@ fn policy_fixed_gradient<M: ModelMdp + ?Sized>(
 /// Exact `∇ζ J_H` of the finite-horizon solution: stage visits forward over the reachable
 /// states, the hard tail's visits from the stage-H distribution, one local-derivative pass.
 ///
-/// States visited at stage 0 only ([`Stages::first_only`]: the users of the UAV network) get
-/// their visits `W = μ π₀` and successor terms `U = W V₁` straight from the stage-0 policy in the
-/// last pass, the same operations on the same values as through the per-pair tables the other
-/// states accumulate in, so the same bits at a fraction of the memory traffic.
+/// States visited at stage 0 only (the users of the UAV network) get their visits `W = μ π₀` and
+/// successor terms `U = W V₁` straight from the stage-0 policy, the same operations on the same
+/// values as through the per-pair tables the other states accumulate in, so the same bits at a
+/// fraction of the memory traffic; when they come before every other visited state (users before
+/// relays), their local derivatives are added during the stage-0 pass itself.
 pub fn horizon_gradient<M: ModelMdp + ?Sized>(
     mdp: &M,
     zeta: &[f64],
@@ -141,7 +142,7 @@ pub fn horizon_gradient<M: ModelMdp + ?Sized>(
 }
 
 /// [`horizon_gradient`], adding the local derivatives of the states seen at stage 0 only during
-/// the stage-0 pass if `fused` (only where [`Stages::fused`] allows it) or in the final pass
+/// the stage-0 pass if `fused` (only where `Stages::fused` allows it) or in the final pass
 /// over all states.
 fn horizon_gradient_fused<M: ModelMdp + ?Sized>(
     mdp: &M,

@@ -164,104 +164,7 @@ pub fn solve_horizon(
     h: usize,
     tail_warm: Option<&[f64]>,
 ) -> Result<HorizonSolution, ModelError> {
-    solve_horizon_tail(snap, alpha, h, tail_warm, true, Threads::one())
-}
-
-/// [`solve_horizon`] backing up the states of each large stage on up to `threads` threads. The
-/// states of a stage are backed up independently of each other, so the solution is the same,
-/// to the bit, for any number of threads.
-pub fn solve_horizon_threads(
-    snap: &Snapshot,
-    alpha: f64,
-    h: usize,
-    tail_warm: Option<&[f64]>,
-    threads: usize,
-) -> Result<HorizonSolution, ModelError> {
-    solve_horizon_tail(snap, alpha, h, tail_warm, true, Threads { n: threads, min_pairs: PARALLEL_PAIRS })
-}
-
-/// A stage is backed up on several threads only from this many state–action pairs on (the
-/// users' stage of a UAV instance with 2,000 users has 22,000): below, starting threads costs
-/// more than the backups.
-const PARALLEL_PAIRS: usize = 16_384;
-
-/// Threads for the stage backups, used on stages of at least `min_pairs` pairs.
-#[derive(Debug, Clone, Copy)]
-struct Threads {
-    n: usize,
-    min_pairs: usize,
-}
-
-impl Threads {
-    fn one() -> Self {
-        Self { n: 1, min_pairs: usize::MAX }
-    }
-}
-
-/// Backs up `states` (sorted, one stage's) from the next stage's values `next` into `cur`,
-/// whose entry 0 is state `base`, and their Gibbs policies into `pi`, pair after pair.
-fn backup_states(
-    snap: &Snapshot,
-    alpha: f64,
-    states: &[usize],
-    next: &[f64],
-    (cur, base): (&mut [f64], usize),
-    pi: &mut [f64],
-) {
-    let mut qbuf = Vec::new();
-    let mut at = 0;
-    for &s in states {
-        let k = snap.sas(s).len();
-        cur[s - base] = backup(snap, s, alpha, next, &mut pi[at..at + k], &mut qbuf);
-        at += k;
-    }
-}
-
-/// [`backup_states`] over the whole of `cur`, on `threads.n` threads when the stage has at least
-/// `threads.min_pairs` pairs: contiguous runs of states with about as many pairs each, each run
-/// writing its own part of `cur` and `pi`.
-fn backup_stage(
-    snap: &Snapshot,
-    alpha: f64,
-    states: &[usize],
-    next: &[f64],
-    cur: &mut [f64],
-    pi: &mut [f64],
-    threads: Threads,
-) {
-    let n = threads.n.min(states.len());
-    if n <= 1 || pi.len() < threads.min_pairs {
-        return backup_states(snap, alpha, states, next, (cur, 0), pi);
-    }
-    // Cut after the state where the running pair count first reaches j/n of the total.
-    let mut cuts = vec![0];
-    let mut pairs = 0;
-    for (i, &s) in states.iter().enumerate() {
-        pairs += snap.sas(s).len();
-        if pairs * n >= pi.len() * cuts.len() && cuts.len() < n && i + 1 < states.len() {
-            cuts.push(i + 1);
-        }
-    }
-    cuts.push(states.len());
-    std::thread::scope(|scope| {
-        let (mut cur, mut pi, mut base) = (cur, pi, 0);
-        for (j, run) in cuts.windows(2).enumerate() {
-            let run = &states[run[0]..run[1]];
-            let k: usize = run.iter().map(|&s| snap.sas(s).len()).sum();
-            // The run's states are below the next run's first state: split `cur` there.
-            let end = states.get(states.partition_point(|&s| s <= run[run.len() - 1])).map_or(cur.len() + base, |&s| s);
-            let (cur_run, cur_rest) = std::mem::take(&mut cur).split_at_mut(end - base);
-            let (pi_run, pi_rest) = std::mem::take(&mut pi).split_at_mut(k);
-            let start = base;
-            if j + 2 < cuts.len() {
-                scope.spawn(move || backup_states(snap, alpha, run, next, (cur_run, start), pi_run));
-            } else {
-                // The last run on this thread.
-                backup_states(snap, alpha, run, next, (cur_run, start), pi_run);
-            }
-            (cur, pi, base) = (cur_rest, pi_rest, end);
-        }
-    });
+    solve_horizon_tail(snap, alpha, h, tail_warm, true)
 }
 
 /// [`solve_horizon`], solving the hard tail only where it is entered (`restrict`) or on every
@@ -272,7 +175,6 @@ fn solve_horizon_tail(
     h: usize,
     tail_warm: Option<&[f64]>,
     restrict: bool,
-    threads: Threads,
 ) -> Result<HorizonSolution, ModelError> {
     if h == 0 {
         return Err(ModelError::Invalid("horizon must be at least 1".into()));
@@ -284,9 +186,16 @@ fn solve_horizon_tail(
     v[h].copy_from_slice(&tail.v);
     let mut pis: Vec<Vec<f64>> =
         reach.iter().map(|states| vec![0.0; states.iter().map(|&s| snap.sas(s).len()).sum()]).collect();
+    let mut qbuf = Vec::new();
     for stage in (0..h).rev() {
         let (head, rest) = v.split_at_mut(stage + 1);
-        backup_stage(snap, alpha, &reach[stage], &rest[0], &mut head[stage], &mut pis[stage], threads);
+        let (cur, next) = (&mut head[stage], &rest[0]);
+        let mut at = 0;
+        for &s in &reach[stage] {
+            let k = snap.sas(s).len();
+            cur[s] = backup(snap, s, alpha, next, &mut pis[stage][at..at + k], &mut qbuf);
+            at += k;
+        }
     }
     let j = snap.mu.iter().map(|&(s, p)| p * v[0][s]).sum();
     Ok(HorizonSolution { alpha, reach, v, pi: pis, tail, j })
@@ -295,30 +204,6 @@ fn solve_horizon_tail(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Backing up each stage's states on several threads changes no bit: every run of states
-    /// writes its own values and policies, whatever the number of runs.
-    #[test]
-    fn stages_backed_up_on_several_threads_give_the_same_bits() {
-        for kappa in [1.0, 0.85] {
-            let env = envpg_envs::registry().load("uav271", &[("kappa".into(), kappa)]).unwrap();
-            let model = env.model().unwrap();
-            let zeta = model.heuristic_design().unwrap();
-            let snap = Snapshot::build(model, &zeta);
-            let h = model.oracle_hints().horizon;
-            for alpha in [0.05, 2.0, 300.0] {
-                let one = solve_horizon_tail(&snap, alpha, h, None, true, Threads::one()).unwrap();
-                for n in [2, 3, 7] {
-                    // Every stage split, down to the single relay states of the later stages.
-                    let many = solve_horizon_tail(&snap, alpha, h, None, true, Threads { n, min_pairs: 1 }).unwrap();
-                    let bits = |v: &[Vec<f64>]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
-                    assert_eq!(bits(&many.v), bits(&one.v), "kappa {kappa}, alpha {alpha}, {n} threads: values");
-                    assert_eq!(bits(&many.pi), bits(&one.pi), "kappa {kappa}, alpha {alpha}, {n} threads: policies");
-                    assert_eq!(many.j.to_bits(), one.j.to_bits());
-                }
-            }
-        }
-    }
 
     /// Solving the tail only where the process can be after H stages changes no bit of the
     /// values and policies of the stages, nor of the tail where it is entered.
@@ -331,8 +216,8 @@ mod tests {
             let snap = Snapshot::build(model, &zeta);
             let h = model.oracle_hints().horizon;
             for alpha in [0.05, 2.0, 300.0] {
-                let fast = solve_horizon_tail(&snap, alpha, h, None, true, Threads::one()).unwrap();
-                let full = solve_horizon_tail(&snap, alpha, h, None, false, Threads::one()).unwrap();
+                let fast = solve_horizon_tail(&snap, alpha, h, None, true).unwrap();
+                let full = solve_horizon_tail(&snap, alpha, h, None, false).unwrap();
                 assert_eq!(fast.j.to_bits(), full.j.to_bits(), "kappa {kappa}, alpha {alpha}");
                 // Stage values before the tail, and every stage policy.
                 assert!(fast.v[..h] == full.v[..h], "kappa {kappa}, alpha {alpha}: stage values differ");

@@ -5,7 +5,7 @@ use envpg_core::ModelMdp;
 
 use crate::error::ModelError;
 use crate::grad::{corollary_gradient, fd_gradient, horizon_gradient};
-use crate::horizon::solve_horizon_threads;
+use crate::horizon::solve_horizon;
 use crate::snapshot::Snapshot;
 use crate::soft::solve_soft;
 
@@ -40,9 +40,6 @@ pub struct Objective<'a, M: ?Sized> {
     pub gradient: GradientKind,
     /// Step of central differences.
     pub fd_step: f64,
-    /// Threads for the stage backups of the finite-horizon form on large models (the result
-    /// is the same, to the bit, for any number).
-    pub threads: usize,
     /// The last snapshot, whose component decomposition the next one reuses.
     last: std::cell::RefCell<Option<Snapshot>>,
     /// This objective among all (see `generation`).
@@ -135,7 +132,6 @@ impl<'a, M: ModelMdp + ?Sized> Objective<'a, M> {
             form,
             gradient: GradientKind::Exact,
             fd_step: 1e-6,
-            threads: 1,
             last: Default::default(),
             id: OBJECTIVES.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             generation: Default::default(),
@@ -169,7 +165,7 @@ impl<'a, M: ModelMdp + ?Sized> Objective<'a, M> {
         let snap = self.snapshot(zeta);
         let solution = match self.form {
             Form::Ssp => solve_soft_retry(&snap, self.alpha, warm).map(Solution::Ssp),
-            Form::Horizon(h) => solve_horizon_retry(&snap, self.alpha, h, warm, self.threads).map(Solution::Horizon),
+            Form::Horizon(h) => solve_horizon_retry(&snap, self.alpha, h, warm).map(Solution::Horizon),
         };
         self.keep(snap);
         let solution = solution?;
@@ -213,13 +209,12 @@ fn solve_horizon_retry(
     alpha: f64,
     h: usize,
     warm: Option<&[f64]>,
-    threads: usize,
 ) -> Result<crate::HorizonSolution, ModelError> {
-    match solve_horizon_threads(snap, alpha, h, warm, threads) {
+    match solve_horizon(snap, alpha, h, warm) {
         Err(ModelError::Improper { .. } | ModelError::Singular(_) | ModelError::NotConverged { .. })
             if warm.is_some() =>
         {
-            solve_horizon_threads(snap, alpha, h, None, threads)
+            solve_horizon(snap, alpha, h, None)
         }
         r => r,
     }

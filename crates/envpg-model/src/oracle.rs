@@ -438,19 +438,15 @@ fn run_restarts<M: ModelMdp + ?Sized>(
     let n = zeta0s.len();
     let next = AtomicUsize::new(0);
     let results: Vec<OnceLock<Result<Restart, ModelError>>> = (0..n).map(|_| OnceLock::new()).collect();
-    let outer = cfg.threads.clamp(1, n.max(1));
-    // Threads left over when there are fewer restarts than threads (`--restarts 1`) back up the
-    // large stages of each restart's evaluations; the results are the same for any split.
-    let inner = (cfg.threads / outer).max(1);
     std::thread::scope(|scope| {
-        for _ in 0..outer {
+        for _ in 0..cfg.threads.clamp(1, n.max(1)) {
             scope.spawn(|| {
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     if i >= n {
                         break;
                     }
-                    let _ = results[i].set(anneal_on(model, cfg, first + i, &zeta0s[i], streams, deterministic, inner));
+                    let _ = results[i].set(anneal(model, cfg, first + i, &zeta0s[i], streams, deterministic));
                 }
             });
         }
@@ -475,20 +471,6 @@ pub fn anneal<M: ModelMdp + ?Sized>(
     zeta0: &[f64],
     streams: &Streams,
     deterministic: bool,
-) -> Result<Restart, ModelError> {
-    anneal_on(model, cfg, index, zeta0, streams, deterministic, 1)
-}
-
-/// [`anneal`] with `threads` threads for the stage backups of its finite-horizon evaluations
-/// ([`Objective::threads`]): the same restart, to the bit, for any number.
-fn anneal_on<M: ModelMdp + ?Sized>(
-    model: &M,
-    cfg: &OracleConfig,
-    index: usize,
-    zeta0: &[f64],
-    streams: &Streams,
-    deterministic: bool,
-    threads: usize,
 ) -> Result<Restart, ModelError> {
     let start = Instant::now();
     let space = model.zeta_space();
@@ -526,7 +508,6 @@ fn anneal_on<M: ModelMdp + ?Sized>(
     let mut hor_obj = Objective::new(model, 0.0, horizon);
     ssp_obj.gradient = cfg.gradient;
     hor_obj.gradient = cfg.gradient;
-    hor_obj.threads = threads;
     for &alpha in &alphas {
         ssp_obj.alpha = alpha;
         hor_obj.alpha = alpha;
