@@ -40,49 +40,24 @@ fn accumulate_with<M: ModelMdp + ?Sized>(
     grad: &mut [f64],
     coef: impl Fn(usize, usize, usize) -> (f64, f64),
 ) {
-    let mut contraction = StateContraction::new(mdp, zeta, snap);
+    // Sized once for the largest state and written by index: pushes kept the loop's values
+    // on the stack around their capacity checks (a profile's hottest lines).
+    let widest = (0..snap.n_states).map(|s| snap.out_start[snap.sa_start[s + 1]] - snap.out_start[snap.sa_start[s]]);
+    let widest = widest.max().unwrap_or(0);
+    let mut cp = vec![0.0; widest];
+    let mut cc = vec![0.0; widest];
+    let (cost, prob, gamma) = (&snap.cost[..], &snap.prob[..], snap.gamma);
     for s in 0..snap.n_states {
-        contraction.add(s, |sa, o| coef(s, sa, o), grad);
-    }
-}
-
-/// The local derivative of one state at a time: its pairs' `(W_sa, U_o)` into the model's
-/// contraction ([`ModelMdp::accumulate_state_grad`]), through scratch sized once for the
-/// widest state.
-struct StateContraction<'a, M: ?Sized> {
-    mdp: &'a M,
-    zeta: &'a [f64],
-    snap: &'a Snapshot,
-    cp: Vec<f64>,
-    cc: Vec<f64>,
-}
-
-impl<'a, M: ModelMdp + ?Sized> StateContraction<'a, M> {
-    fn new(mdp: &'a M, zeta: &'a [f64], snap: &'a Snapshot) -> Self {
-        // Written by index: pushes kept the loop's values on the stack around their capacity
-        // checks (a profile's hottest lines).
-        let widest =
-            (0..snap.n_states).map(|s| snap.out_start[snap.sa_start[s + 1]] - snap.out_start[snap.sa_start[s]]);
-        let widest = widest.max().unwrap_or(0);
-        Self { mdp, zeta, snap, cp: vec![0.0; widest], cc: vec![0.0; widest] }
-    }
-
-    /// Adds the local derivative of state `s`, `(W_sa, U_o)` given by `coef(sa, o)`; nothing if
-    /// every coefficient vanishes.
-    #[inline]
-    fn add(&mut self, s: usize, coef: impl Fn(usize, usize) -> (f64, f64), grad: &mut [f64]) {
-        let snap = self.snap;
         let pairs = snap.sas(s);
         if pairs.is_empty() {
-            return;
+            continue;
         }
-        let (cost, prob, gamma) = (&snap.cost[..], &snap.prob[..], snap.gamma);
         let (lo, hi) = (snap.out_start[pairs.start], snap.out_start[pairs.end]);
-        let (cp, cc) = (&mut self.cp[..hi - lo], &mut self.cc[..hi - lo]);
+        let (cp, cc) = (&mut cp[..hi - lo], &mut cc[..hi - lo]);
         let mut any = false;
         for sa in pairs {
             for o in snap.outs(sa) {
-                let (w, u) = coef(sa, o);
+                let (w, u) = coef(s, sa, o);
                 let (p, c) = (w * cost[o] + gamma * u, w * prob[o]);
                 cp[o - lo] = p;
                 cc[o - lo] = c;
@@ -90,7 +65,7 @@ impl<'a, M: ModelMdp + ?Sized> StateContraction<'a, M> {
             }
         }
         if any {
-            self.mdp.accumulate_state_grad(s, self.zeta, &prob[lo..hi], cp, cc, grad);
+            mdp.accumulate_state_grad(s, zeta, &prob[lo..hi], cp, cc, grad);
         }
     }
 }
@@ -128,31 +103,16 @@ fn policy_fixed_gradient<M: ModelMdp + ?Sized>(
 /// states, the hard tail's visits from the stage-H distribution, one local-derivative pass.
 ///
 /// States visited at stage 0 only (the users of the UAV network) get their visits `W = μ π₀` and
-/// successor terms `U = W V₁` straight from the stage-0 policy, the same operations on the same
-/// values as through the per-pair tables the other states accumulate in, so the same bits at a
-/// fraction of the memory traffic; when they come before every other visited state (users before
-/// relays), their local derivatives are added during the stage-0 pass itself.
+/// successor terms `U = W V₁` straight from the stage-0 policy in the last pass, the same
+/// operations on the same values as through the per-pair tables the other states accumulate in,
+/// so the same bits at a fraction of the memory traffic.
 pub fn horizon_gradient<M: ModelMdp + ?Sized>(
     mdp: &M,
     zeta: &[f64],
     snap: &Snapshot,
     sol: &HorizonSolution,
 ) -> Result<Vec<f64>, ModelError> {
-    horizon_gradient_fused(mdp, zeta, snap, sol, Stages::of(snap, sol.pi.len()).fused)
-}
-
-/// [`horizon_gradient`], adding the local derivatives of the states seen at stage 0 only during
-/// the stage-0 pass if `fused` (only where `Stages::fused` allows it) or in the final pass
-/// over all states.
-fn horizon_gradient_fused<M: ModelMdp + ?Sized>(
-    mdp: &M,
-    zeta: &[f64],
-    snap: &Snapshot,
-    sol: &HorizonSolution,
-    early: bool,
-) -> Result<Vec<f64>, ModelError> {
     let stages = Stages::of(snap, sol.pi.len());
-    debug_assert!(!early || stages.fused);
     let (first_only, slot) = (&stages.first_only[..], &stages.slot[..]);
     // Visits and successor terms of the other states, in compact tables: pair `sa` of state
     // `s` at `slot[s].0 + (sa − first pair of s)`, its outcome `o` at `slot[s].1 + (o − first
@@ -167,15 +127,6 @@ fn horizon_gradient_fused<M: ModelMdp + ?Sized>(
     // this loop over every pair of the first stage was a profile's hottest.
     let (next, prob, terminal, gamma) = (&snap.next[..], &snap.prob[..], &snap.terminal[..], snap.gamma);
     let (sa_start, out_start) = (&snap.sa_start[..], &snap.out_start[..]);
-    let (pi0, v1) = (sol.pi.first().map_or(&[][..], |p| &p[..]), sol.v.get(1).map_or(&[][..], |v| &v[..]));
-    // What the tables would hold for a state seen at stage 0 only: one addition to zero each,
-    // or nothing when W = 0.
-    let first_coef = |s: usize, at: usize, sa: usize, o: usize| {
-        let wh = mu[s] * pi0[at + sa - sa_start[s]];
-        if wh == 0.0 { (0.0, 0.0) } else { (0.0 + wh, 0.0 + wh * v1[next[o]]) }
-    };
-    let mut grad = vec![0.0; zeta.len()];
-    let mut contraction = StateContraction::new(mdp, zeta, snap);
     for (h, pi) in sol.pi.iter().enumerate() {
         let vnext = &sol.v[h + 1][..];
         // `rho_next` held the distribution of stage h − 1 (μ for h = 1), nonzero only at the
@@ -212,13 +163,6 @@ fn horizon_gradient_fused<M: ModelMdp + ?Sized>(
                     }
                 }
             }
-            if fused && early {
-                // Its local derivative now, while its policy and successors are at hand: these
-                // states all come before every other that can add to the gradient, so the
-                // additions keep the order of a pass over all states.
-                let at = first_only[s];
-                contraction.add(s, |sa, o| first_coef(s, at, sa, o), &mut grad);
-            }
         }
         std::mem::swap(&mut rho, &mut rho_next);
     }
@@ -240,17 +184,19 @@ fn horizon_gradient_fused<M: ModelMdp + ?Sized>(
             }
         }
     }
-    for s in 0..snap.n_states {
-        match first_only[s] {
-            NOT_FIRST_ONLY => {
-                let first = sa_start[s];
-                let (ws, us) = (slot[s].0 - first, slot[s].1 - out_start[first]);
-                contraction.add(s, |sa, o| (w[ws + sa], u[us + o]), &mut grad);
-            }
-            _ if early => {}
-            at => contraction.add(s, |sa, o| first_coef(s, at, sa, o), &mut grad),
+    let mut grad = vec![0.0; zeta.len()];
+    let (pi0, v1) = (sol.pi.first().map_or(&[][..], |p| &p[..]), sol.v.get(1).map_or(&[][..], |v| &v[..]));
+    accumulate_with(mdp, zeta, snap, &mut grad, |s, sa, o| match first_only[s] {
+        NOT_FIRST_ONLY => {
+            let first = sa_start[s];
+            (w[slot[s].0 + sa - first], u[slot[s].1 + o - out_start[first]])
         }
-    }
+        // What the tables would hold: one addition to zero each, or nothing when W = 0.
+        at => {
+            let wh = mu[s] * pi0[at + sa - sa_start[s]];
+            if wh == 0.0 { (0.0, 0.0) } else { (0.0 + wh, 0.0 + wh * v1[next[o]]) }
+        }
+    });
     Ok(grad)
 }
 
@@ -390,22 +336,19 @@ mod tests {
     /// 0 only), flpo, aac, and random MDPs whose initial states are visited again later.
     #[test]
     fn the_horizon_gradient_gives_the_bits_of_whole_model_tables() {
-        // Whether some initial state is visited again (after stage 0 or in the tail), and
-        // whether the states seen at stage 0 only are added during the stage-0 pass.
-        let check = |model: &dyn ModelMdp, zeta: &[f64], h: usize, what: &str| -> (bool, bool) {
+        // Whether some initial state is visited again (after stage 0 or in the tail).
+        let check = |model: &dyn ModelMdp, zeta: &[f64], h: usize, what: &str| -> bool {
             let snap = Snapshot::build(model, zeta);
             let stages = Stages::of(&snap, h);
             for alpha in [0.05, 2.0, 300.0] {
                 let sol = solve_horizon(&snap, alpha, h, None).unwrap();
                 let fast = horizon_gradient(model, zeta, &snap, &sol).unwrap();
-                let late = horizon_gradient_fused(model, zeta, &snap, &sol, false).unwrap();
                 let dense = horizon_gradient_dense(model, zeta, &snap, &sol);
                 let bits = |g: &[f64]| g.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
                 assert_eq!(bits(&fast), bits(&dense), "{what}, alpha {alpha}");
-                assert_eq!(bits(&late), bits(&dense), "{what}, alpha {alpha}, stage-0-only states in the last pass");
                 assert!(dense.iter().any(|&g| g != 0.0), "{what}: a gradient that could differ");
             }
-            (stages.reach[0].iter().any(|&s| stages.first_only[s] == NOT_FIRST_ONLY), stages.fused)
+            stages.reach[0].iter().any(|&s| stages.first_only[s] == NOT_FIRST_ONLY)
         };
         let cases: [(&str, &[(&str, f64)]); 5] = [
             ("uav271", &[("kappa", 1.0)]),
@@ -419,14 +362,13 @@ mod tests {
             let env = envpg_envs::registry().load(name, &params).unwrap();
             let model = env.model().unwrap();
             let zeta = model.random_design(&mut envpg_core::Streams::new(1).stream(envpg_core::Purpose::Zeta0, 0, 0));
-            let (_, fused) = check(model, &zeta, model.oracle_hints().horizon, &format!("{name} {params:?}"));
-            assert!(fused, "{name}: the states seen at stage 0 only come first");
+            check(model, &zeta, model.oracle_hints().horizon, &format!("{name} {params:?}"));
         }
         let mut revisited = 0;
         for seed in 0..8 {
             let mdp = crate::random::RandomMdp::new(seed, 7, 3, 3, 1.0, true);
             let zeta = mdp.random_design(&mut envpg_core::Streams::new(seed).stream(envpg_core::Purpose::Zeta0, 0, 0));
-            revisited += usize::from(check(&mdp, &zeta, 4, &format!("random MDP {seed}")).0);
+            revisited += usize::from(check(&mdp, &zeta, 4, &format!("random MDP {seed}")));
         }
         assert!(revisited > 0, "some random MDP visits an initial state again");
     }

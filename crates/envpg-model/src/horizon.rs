@@ -55,10 +55,6 @@ pub(crate) struct Stages {
     /// those tables in `slots`.
     pub(crate) slot: Vec<(usize, usize)>,
     pub(crate) slots: (usize, usize),
-    /// Whether every state seen at stage 0 only comes before every other state that can be
-    /// visited: then the gradient adds their local derivatives during the stage-0 pass, in the
-    /// order of a pass over all states.
-    pub(crate) fused: bool,
 }
 
 /// [`Stages::first_only`] of a state visited after stage 0, in the tail, or never.
@@ -107,16 +103,7 @@ impl Stages {
             slots.0 += pairs.len();
             slots.1 += snap.out_start[pairs.end] - snap.out_start[pairs.start];
         }
-        let mut visited = tail.clone();
-        reach.iter().flatten().for_each(|&s| visited[s] = true);
-        let last_first = (0..snap.n_states).rev().find(|&s| first_only[s] != NOT_FIRST_ONLY);
-        let first_other = (0..snap.n_states).find(|&s| first_only[s] == NOT_FIRST_ONLY && visited[s]);
-        let fused = match (last_first, first_other) {
-            (Some(a), Some(b)) => a < b,
-            (Some(_), None) => true,
-            (None, _) => false,
-        };
-        Self { h, reach: Arc::new(reach), tail, first_only, slot, slots, fused }
+        Self { h, reach: Arc::new(reach), tail, first_only, slot, slots }
     }
 
     /// The stages of `snap` for horizon `h`, from its cache when computed for the same `h`.
