@@ -143,19 +143,20 @@ pub fn horizon_gradient<M: ModelMdp + ?Sized>(
             let pairs = sa_start[s]..sa_start[s + 1];
             let pi_s = &pi[at..at + pairs.len()];
             at += pairs.len();
-            let fused = h == 0 && first_only[s] != NOT_FIRST_ONLY;
+            // A state seen at stage 0 only keeps no tables: its terms are read from π₀ at the end.
+            let untabled = h == 0 && first_only[s] != NOT_FIRST_ONLY;
             let (ws, us) = (slot[s].0.wrapping_sub(pairs.start), slot[s].1.wrapping_sub(out_start[pairs.start]));
             for (sa, &p) in pairs.zip(pi_s) {
                 let wh = rho_h[s] * p;
                 if wh == 0.0 {
                     continue;
                 }
-                if !fused {
+                if !untabled {
                     w[ws.wrapping_add(sa)] += wh;
                 }
                 for o in out_start[sa]..out_start[sa + 1] {
                     let t = next[o];
-                    if !fused {
+                    if !untabled {
                         u[us.wrapping_add(o)] += wh * vnext[t];
                     }
                     if !terminal[t] {
