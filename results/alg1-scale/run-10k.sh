@@ -4,10 +4,11 @@
 # `uav`, `uav-large`, `uav-large` with four times the episodes or three times the iterations,
 # both presets from the users' k-means centres (`--zeta0 clustered`), and `uav-large` with two
 # passes (`--passes 2`) from either ζ₀, the second pass from the first pass's design
-# (`--pass-start best`, the default) or from a ζ₀ of its own (`--pass-start fresh`), against the best
-# design known there. Writes
-# alg1-10k-*.json (result files: `envpg evaluate FILE` recomputes each J) and table-10k.md;
-# result files already there are kept. Run from the repository root: bash results/alg1-scale/run-10k.sh (≈ 65 min on 2 cores).
+# (`--pass-start best`, the default) or from a ζ₀ of its own (`--pass-start fresh`), three fresh
+# passes from clustered ζ₀, and one clustered pass with five times the polish's iterations, against
+# the best design known there. Writes alg1-10k-*.json (result files: `envpg evaluate FILE`
+# recomputes each J) and table-10k.md; result files already there are kept. Run from the
+# repository root: bash results/alg1-scale/run-10k.sh (≈ 80 min on 2 cores).
 set -euo pipefail
 out=results/alg1-scale
 cargo build --release --quiet --bin envpg --bin envpg-launch
@@ -34,6 +35,9 @@ run "$out/alg1-10k-uav-large-clustered-passes2-fresh.json" --preset uav-large --
 run "$out/alg1-10k-uav-large-passes2.json" --preset uav-large --passes 2 --pass-start best
 run "$out/alg1-10k-uav-large-clustered-passes2.json" --preset uav-large --zeta0 clustered --passes 2 \
     --pass-start best
+run "$out/alg1-10k-uav-large-clustered-passes3-fresh.json" --preset uav-large --zeta0 clustered --passes 3 \
+    --pass-start fresh
+run "$out/alg1-10k-uav-large-clustered-pi400.json" --preset uav-large --zeta0 clustered --polish-iterations 400
 python3 - "$out" "$name" <<'PY'
 import glob, json, sys
 out, name = sys.argv[1:]
@@ -59,7 +63,11 @@ with open(f"{out}/table-10k.md", "w") as f:
                                    (f"{out}/alg1-10k-uav-large-passes2.json", "uav-large",
                                     "`--passes 2 --pass-start best`"),
                                    (f"{out}/alg1-10k-uav-large-clustered-passes2.json", "uav-large",
-                                    "`--zeta0 clustered --passes 2 --pass-start best`")):
+                                    "`--zeta0 clustered --passes 2 --pass-start best`"),
+                                   (f"{out}/alg1-10k-uav-large-clustered-passes3-fresh.json", "uav-large",
+                                    "`--zeta0 clustered --passes 3 --pass-start fresh`"),
+                                   (f"{out}/alg1-10k-uav-large-clustered-pi400.json", "uav-large",
+                                    "`--zeta0 clustered --polish-iterations 400`")):
         r = json.load(open(file))
         before = ((r.get("details") or {}).get("polish") or {}).get("J_before")
         alone = f"{100 * (before / best - 1):+.2f}%" if before else "—"
