@@ -1,11 +1,12 @@
 //! `envpg-launch --passes N`: each pass after the first trains with a seed of its own from the
-//! design of the best pass before it (`--pass-start best`, the default) or from a ζ₀ of its own
-//! (`fresh`), the best pass (ranked by sampled cost) is the result and every pass is listed;
+//! design of the best pass before it (`--pass-start best`, the default), from a ζ₀ of its own
+//! (`fresh`) or from the best design moved by noise (`kick`), the best pass (ranked by sampled cost) is the result and every pass is listed;
 //! the same seed gives the same result in every mode, and `--resume` continues a run whose
 //! last pass did not finish, ending as the uninterrupted run does.
 
 mod support;
 
+use envpg_core::ParamMdp as _;
 use std::path::Path;
 use std::time::Duration;
 
@@ -141,6 +142,48 @@ fn by_default_each_pass_starts_from_the_best_design_so_far() {
             .collect::<Vec<_>>()
     };
     assert_eq!(without_seconds(passes(&resumed)), without_seconds(runs));
+}
+
+#[test]
+fn kicked_passes_start_near_the_best_design_so_far() {
+    let dir = tempfile::tempdir().unwrap();
+    let inst = tiny_instance_file(dir.path());
+    let out = dir.path().join("kick.json");
+    let args = with(
+        small_run(&inst, 4, 40),
+        &[
+            "--passes",
+            "3",
+            "--pass-start",
+            "kick",
+            "--in-process",
+            "--workers",
+            "1",
+            "--out",
+            &out.display().to_string(),
+        ],
+    );
+    let o = run(&args, Duration::from_secs(240));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = load(&out);
+    let runs = passes(&r);
+    assert_eq!(r["details"]["passes"]["start"], "kick");
+    // Pass 2 starts from pass 1's design, pass 3 from the better of the two (by sampled cost),
+    // each moved by noise of 2% and 4% of the design space's scale.
+    let scale =
+        envpg_envs::uav::UavNetwork::new(support::tiny_instance(20, 3, 5), 0.9, 1.0).unwrap().zeta_space().scale()[0];
+    let vec = |v: &serde_json::Value| -> Vec<f64> { serde_json::from_value(v.clone()).unwrap() };
+    let estimate = |i: usize| runs[i]["j_estimate"].as_f64().unwrap();
+    let better = if estimate(1) < estimate(0) { 1 } else { 0 };
+    for (p, from, relative) in [(1, 0, 0.02), (2, better, 0.04)] {
+        let (start, best) = (vec(&runs[p]["zeta0"]), vec(&runs[from]["zeta"]));
+        let moved: Vec<f64> = start.iter().zip(&best).map(|(a, b)| (a - b) / (relative * scale)).collect();
+        // Six coordinates of N(0, 1) noise: none zero, none beyond 6.
+        assert!(moved.iter().all(|m| *m != 0.0 && m.abs() < 6.0), "pass {}: {moved:?}", p + 1);
+    }
+    assert!(runs[1]["seed"] != runs[0]["seed"] && runs[2]["seed"] != runs[1]["seed"], "{runs:?}");
+    let kept = r["details"]["passes"]["kept"].as_u64().unwrap() as usize;
+    assert!((0..3).all(|i| estimate(kept - 1) <= estimate(i)), "{runs:?}");
 }
 
 #[test]

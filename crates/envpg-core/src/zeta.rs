@@ -191,6 +191,19 @@ impl ZetaSpace {
         }
     }
 
+    /// `zeta` moved by Gaussian noise of standard deviation `relative · scale[i]` on each
+    /// coordinate, one draw per coordinate in order, and projected into the box: a start near a
+    /// design that may descend into another basin.
+    pub fn kick(&self, zeta: &[f64], relative: f64, rng: &mut StreamRng) -> Vec<f64> {
+        let mut z: Vec<f64> = zeta
+            .iter()
+            .zip(&self.scale)
+            .map(|(&z, &s)| z + relative * s * rng.sample::<f64, _>(rand_distr::StandardNormal))
+            .collect();
+        self.project(&mut z);
+        z
+    }
+
     /// A design drawn uniformly over the bounds, one coordinate after another; an unbounded
     /// coordinate is drawn over `origin ± scale`.
     pub fn sample(&self, rng: &mut StreamRng) -> Vec<f64> {
@@ -244,6 +257,34 @@ mod tests {
             assert_eq!(z, s.sample(&mut r2));
             assert!((0.0..=1.0).contains(&z[0]) && (-1.0..=1.0).contains(&z[1]));
         }
+    }
+
+    #[test]
+    fn kicks_scale_with_each_coordinate_stay_inside_and_are_reproducible() {
+        let s = ZetaSpace::with_scales(
+            vec!["a".into(), "b".into()],
+            vec![0.0, f64::NEG_INFINITY],
+            vec![1.0, f64::INFINITY],
+            vec![0.5, 0.0],
+            vec![0.5, 4.0],
+        )
+        .unwrap();
+        let (mut r1, mut r2) =
+            (Streams::new(3).stream(Purpose::Other, 0, 0), Streams::new(3).stream(Purpose::Other, 0, 0));
+        let n = 4000;
+        let (mut sum, mut sq) = (0.0, 0.0);
+        for _ in 0..n {
+            let z = s.kick(&[0.999, 10.0], 0.25, &mut r1);
+            assert_eq!(z, s.kick(&[0.999, 10.0], 0.25, &mut r2));
+            assert!((0.0..=1.0).contains(&z[0]), "{z:?}");
+            sum += z[1] - 10.0;
+            sq += (z[1] - 10.0).powi(2);
+        }
+        // Coordinate b: N(0, (0.25 · 4)²); mean within 4 standard errors, sd within 5%.
+        let (mean, sd) = (sum / n as f64, (sq / n as f64 - (sum / n as f64).powi(2)).sqrt());
+        assert!(mean.abs() < 4.0 / (n as f64).sqrt(), "mean {mean}");
+        assert!((sd - 1.0).abs() < 0.05, "sd {sd}");
+        assert_eq!(s.kick(&[0.5, 1.0], 0.0, &mut r1), vec![0.5, 1.0], "no noise, no move");
     }
 
     #[test]

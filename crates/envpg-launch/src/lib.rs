@@ -102,8 +102,10 @@ struct LaunchArgs {
     #[arg(long, default_value_t = 1)]
     passes: usize,
     /// Where the passes after the first start: `best` (the design of the best pass so far: for
-    /// a run that had not finished improving) or `fresh` (the run's `--zeta0`, drawn anew with
-    /// the pass's seed: independent restarts). Default `best`; needs `--passes` 2 or more.
+    /// a run that had not finished improving), `fresh` (the run's `--zeta0`, drawn anew with
+    /// the pass's seed: independent restarts) or `kick` (the best design so far moved by
+    /// Gaussian noise of 2%, 4%, 8%, 2%, … of each coordinate's scale: basin hopping). Default
+    /// `best`; needs `--passes` 2 or more.
     #[arg(long, value_enum)]
     pass_start: Option<passes::PassStart>,
     /// Extra real compute per environment step in the workers, in microseconds (benchmarks).

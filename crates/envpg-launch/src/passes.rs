@@ -4,8 +4,9 @@
 //! Pass P trains in `DIR/pass-P/` (a run directory of its own: `run.json`, metrics, log,
 //! checkpoints, `result.json`) with the run's settings and a seed of its own ([`pass_seed`]).
 //! Where it starts is [`PassStart`]: the run's `--zeta0`, drawn anew with the pass's seed where
-//! it is drawn (`fresh`, independent passes), or the design of the best pass before it
-//! (`best`, the default). Passes are ranked by
+//! it is drawn (`fresh`, independent passes), the design of the best pass before it
+//! (`best`, the default), or that design moved by noise (`kick`, [`kick_start`]). Passes are
+//! ranked by
 //! [`envpg_ac::polish::rank_designs`]: each finished pass's design and greedy policy sampled on
 //! the same episodes, the lowest mean cost first — the environment's sampler only, never its
 //! model. The kept pass's result file, with every pass listed in `details.passes`, is the run's
@@ -39,6 +40,26 @@ pub enum PassStart {
     /// From the run's `--zeta0`, drawn anew with the pass's seed (`random`, `clustered`):
     /// independent restarts, for a run that ends in a poor basin.
     Fresh,
+    /// From the design of the best pass so far moved by Gaussian noise ([`kick_start`]):
+    /// basin hopping, for a run whose passes keep ending in the same poor basin.
+    Kick,
+}
+
+/// Standard deviation of the first kick, relative to each coordinate's scale
+/// ([`envpg_core::ZetaSpace::scale`]); kick `k` (pass `k + 2`) uses `2^(k mod 3)` times it. On the
+/// UAV network (scale: half the diagonal of the box of users and destination) these are the
+/// oracle's kicks, 1%, 2% and 4% of the diagonal.
+pub const KICK_SCALE: f64 = 0.02;
+
+/// Stream key of the kicks' noise.
+const PASS_KICKS: u64 = 0x6b69_636b;
+
+/// The start of pass `p` (from 2) with `--pass-start kick`: `best` moved by
+/// [`ZetaSpace::kick`](envpg_core::ZetaSpace::kick) with relative standard deviation
+/// `KICK_SCALE · 2^((p − 2) mod 3)`, from the run seed's stream keyed by the pass.
+pub(crate) fn kick_start(best: &[f64], space: &envpg_core::ZetaSpace, seed: u64, p: usize) -> Vec<f64> {
+    let relative = KICK_SCALE * f64::from(1u32 << ((p - 2) % 3));
+    space.kick(best, relative, &mut Streams::new(seed).stream(Purpose::Other, PASS_KICKS, p as u64))
 }
 
 /// `DIR/pass-P`.
@@ -100,8 +121,15 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
         let copy = RunFile::result_copy_path(&pdir);
         // Ranked for every pass, resumed or not (a few milliseconds), so that a resumed run
         // counts the same rankings as an uninterrupted one.
-        let best = (p > 1 && top.pass_start == PassStart::Best)
-            .then(|| best_so_far(&env, &done, &settings, &streams, &mut cost));
+        let start = match top.pass_start {
+            PassStart::Fresh => None,
+            _ if p == 1 => None,
+            PassStart::Best => Some(best_so_far(&env, &done, &settings, &streams, &mut cost)),
+            PassStart::Kick => {
+                let best = best_so_far(&env, &done, &settings, &streams, &mut cost);
+                Some(kick_start(&best, env.sampler().zeta_space(), top.spec.seed, p))
+            }
+        };
         if !(resuming && copy.exists()) {
             let (run, checkpoint) = if resuming && RunFile::path(&pdir).exists() {
                 let run = RunFile::load(&pdir)?;
@@ -112,7 +140,7 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
                 };
                 (run, checkpoint)
             } else {
-                let run = pass_run(top, p, dir, best.as_deref());
+                let run = pass_run(top, p, dir, start.as_deref());
                 envpg_core::io::create_private_dir(&pdir)
                     .with_context(|| format!("creating the pass directory {}", pdir.display()))?;
                 run.save(&pdir)?;
@@ -156,7 +184,7 @@ fn rank(env: &LoadedEnv, done: &[ResultFile], settings: &PolishSettings, streams
     rank_designs(env.sampler(), &designs, settings, streams)
 }
 
-/// The design of the best of the finished passes (`--pass-start best`), the ranking's cost
+/// The design of the best of the finished passes (`--pass-start best`, `kick`), the ranking's cost
 /// added to `cost`.
 fn best_so_far(
     env: &LoadedEnv,
@@ -239,4 +267,37 @@ fn combine(
         );
     }
     result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sample standard deviation of `z`'s coordinates about 0.
+    fn sd(z: &[f64]) -> f64 {
+        (z.iter().map(|x| x * x).sum::<f64>() / z.len() as f64).sqrt()
+    }
+
+    #[test]
+    fn kicks_grow_twofold_over_three_passes_then_start_again_with_noise_of_their_own() {
+        let d = 4000;
+        let space = envpg_core::ZetaSpace::with_scales(
+            (0..d).map(|i| format!("z{i}")).collect(),
+            vec![f64::NEG_INFINITY; d],
+            vec![f64::INFINITY; d],
+            vec![0.0; d],
+            vec![10.0; d],
+        )
+        .unwrap();
+        let zero = vec![0.0; d];
+        let kicks: Vec<Vec<f64>> = (2..=5).map(|p| kick_start(&zero, &space, 9, p)).collect();
+        // Pass p: N(0, (KICK_SCALE · 10 · 2^((p − 2) mod 3))²) per coordinate; sd within 5%.
+        for (k, factor) in [1.0, 2.0, 4.0, 1.0].into_iter().enumerate() {
+            let want = KICK_SCALE * 10.0 * factor;
+            assert!((sd(&kicks[k]) / want - 1.0).abs() < 0.05, "pass {}: sd {} want {want}", k + 2, sd(&kicks[k]));
+        }
+        assert_ne!(kicks[0], kicks[3], "passes 2 and 5 kick alike in size, not in direction");
+        assert_eq!(kick_start(&zero, &space, 9, 3), kicks[1], "same seed and pass, same kick");
+        assert_ne!(kick_start(&zero, &space, 10, 3), kicks[1], "another run seed, another kick");
+    }
 }
