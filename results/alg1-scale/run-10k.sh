@@ -5,10 +5,12 @@
 # both presets from the users' k-means centres (`--zeta0 clustered`), and `uav-large` with two
 # passes (`--passes 2`) from either ζ₀, the second pass from the first pass's design
 # (`--pass-start best`, the default) or from a ζ₀ of its own (`--pass-start fresh`), three fresh
-# passes from clustered ζ₀, and one clustered pass with five times the polish's iterations, against
+# passes from clustered ζ₀, three kicked passes from clustered ζ₀ (`--pass-start kick`: each later
+# pass from the best design so far moved by noise), and one clustered pass with five times the
+# polish's iterations, against
 # the best design known there. Writes alg1-10k-*.json (result files: `envpg evaluate FILE`
 # recomputes each J) and table-10k.md; result files already there are kept. Run from the
-# repository root: bash results/alg1-scale/run-10k.sh (≈ 80 min on 2 cores).
+# repository root: bash results/alg1-scale/run-10k.sh (≈ 90 min on 2 cores).
 set -euo pipefail
 out=results/alg1-scale
 cargo build --release --quiet --bin envpg --bin envpg-launch
@@ -38,6 +40,8 @@ run "$out/alg1-10k-uav-large-clustered-passes2.json" --preset uav-large --zeta0 
 run "$out/alg1-10k-uav-large-clustered-passes3-fresh.json" --preset uav-large --zeta0 clustered --passes 3 \
     --pass-start fresh
 run "$out/alg1-10k-uav-large-clustered-pi400.json" --preset uav-large --zeta0 clustered --polish-iterations 400
+run "$out/alg1-10k-uav-large-clustered-passes3-kick.json" --preset uav-large --zeta0 clustered --passes 3 \
+    --pass-start kick
 python3 - "$out" "$name" <<'PY'
 import glob, json, sys
 out, name = sys.argv[1:]
@@ -67,7 +71,9 @@ with open(f"{out}/table-10k.md", "w") as f:
                                    (f"{out}/alg1-10k-uav-large-clustered-passes3-fresh.json", "uav-large",
                                     "`--zeta0 clustered --passes 3 --pass-start fresh`"),
                                    (f"{out}/alg1-10k-uav-large-clustered-pi400.json", "uav-large",
-                                    "`--zeta0 clustered --polish-iterations 400`")):
+                                    "`--zeta0 clustered --polish-iterations 400`"),
+                                   (f"{out}/alg1-10k-uav-large-clustered-passes3-kick.json", "uav-large",
+                                    "`--zeta0 clustered --passes 3 --pass-start kick`")):
         r = json.load(open(file))
         before = ((r.get("details") or {}).get("polish") or {}).get("J_before")
         alone = f"{100 * (before / best - 1):+.2f}%" if before else "—"
