@@ -1,6 +1,7 @@
 //! `envpg-launch --passes N`: each pass after the first trains with a seed of its own from the
 //! design of the best pass before it (`--pass-start best`, the default), from a ζ₀ of its own
-//! (`fresh`) or from the best design moved by noise (`kick`), the best pass (ranked by sampled cost) is the result and every pass is listed;
+//! (`fresh`) or from the best design moved by noise (`kick`), the best pass (ranked by sampled
+//! cost) is the result and every pass is listed;
 //! the same seed gives the same result in every mode, and `--resume` continues a run whose
 //! last pass did not finish, ending as the uninterrupted run does.
 
