@@ -56,10 +56,10 @@ const PASS_KICKS: u64 = 0x6b69_636b;
 
 /// The start of pass `p` (from 2) with `--pass-start kick`: `best` moved by
 /// [`ZetaSpace::kick`](envpg_core::ZetaSpace::kick) with relative standard deviation
-/// `KICK_SCALE · 2^((p − 2) mod 3)`, from the run seed's stream keyed by the pass.
-pub(crate) fn kick_start(best: &[f64], space: &envpg_core::ZetaSpace, seed: u64, p: usize) -> Vec<f64> {
+/// `KICK_SCALE · 2^((p − 2) mod 3)`, from the run's `streams` keyed by the pass.
+pub(crate) fn kick_start(best: &[f64], space: &envpg_core::ZetaSpace, streams: &Streams, p: usize) -> Vec<f64> {
     let relative = KICK_SCALE * f64::from(1u32 << ((p - 2) % 3));
-    space.kick(best, relative, &mut Streams::new(seed).stream(Purpose::Other, PASS_KICKS, p as u64))
+    space.kick(best, relative, &mut streams.stream(Purpose::Other, PASS_KICKS, p as u64))
 }
 
 /// `DIR/pass-P`.
@@ -127,7 +127,7 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
             PassStart::Best => Some(best_so_far(&env, &done, &settings, &streams, &mut cost)),
             PassStart::Kick => {
                 let best = best_so_far(&env, &done, &settings, &streams, &mut cost);
-                Some(kick_start(&best, env.sampler().zeta_space(), top.spec.seed, p))
+                Some(kick_start(&best, env.sampler().zeta_space(), &streams, p))
             }
         };
         if !(resuming && copy.exists()) {
@@ -290,14 +290,14 @@ mod tests {
         )
         .unwrap();
         let zero = vec![0.0; d];
-        let kicks: Vec<Vec<f64>> = (2..=5).map(|p| kick_start(&zero, &space, 9, p)).collect();
+        let kicks: Vec<Vec<f64>> = (2..=5).map(|p| kick_start(&zero, &space, &Streams::new(9), p)).collect();
         // Pass p: N(0, (KICK_SCALE · 10 · 2^((p − 2) mod 3))²) per coordinate; sd within 5%.
         for (k, factor) in [1.0, 2.0, 4.0, 1.0].into_iter().enumerate() {
             let want = KICK_SCALE * 10.0 * factor;
             assert!((sd(&kicks[k]) / want - 1.0).abs() < 0.05, "pass {}: sd {} want {want}", k + 2, sd(&kicks[k]));
         }
         assert_ne!(kicks[0], kicks[3], "passes 2 and 5 kick alike in size, not in direction");
-        assert_eq!(kick_start(&zero, &space, 9, 3), kicks[1], "same seed and pass, same kick");
-        assert_ne!(kick_start(&zero, &space, 10, 3), kicks[1], "another run seed, another kick");
+        assert_eq!(kick_start(&zero, &space, &Streams::new(9), 3), kicks[1], "same seed and pass, same kick");
+        assert_ne!(kick_start(&zero, &space, &Streams::new(10), 3), kicks[1], "another run seed, another kick");
     }
 }
