@@ -1,7 +1,8 @@
 //! `envpg-launch --passes N`: each pass after the first trains with a seed of its own from the
 //! design of the best pass before it (`--pass-start best`, the default), from a ζ₀ of its own
-//! (`fresh`) or from the best design moved by noise (`kick`), the best pass (ranked by sampled
-//! cost) is the result and every pass is listed;
+//! (`fresh`), from the best design moved by noise (`kick`), or from there with the best pass's
+//! networks over the end of the schedule (`warm`); the best pass (ranked by sampled cost) is the
+//! result and every pass is listed;
 //! the same seed gives the same result in every mode, and `--resume` continues a run whose
 //! last pass did not finish, ending as the uninterrupted run does.
 
@@ -185,6 +186,91 @@ fn kicked_passes_start_near_the_best_design_so_far() {
     assert!(runs[1]["seed"] != runs[0]["seed"] && runs[2]["seed"] != runs[1]["seed"], "{runs:?}");
     let kept = r["details"]["passes"]["kept"].as_u64().unwrap() as usize;
     assert!((0..3).all(|i| estimate(kept - 1) <= estimate(i)), "{runs:?}");
+}
+
+#[test]
+fn warm_passes_train_on_from_the_best_pass_over_the_last_quarter_and_resume_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    let inst = tiny_instance_file(dir.path());
+    let out = dir.path().join("warm.json");
+    let run_dir = dir.path().join("run");
+    let mut base = with(small_run(&inst, 4, 40), &["--passes", "3", "--pass-start", "warm"]);
+    let every = base.iter().position(|a| a == "--eval-every").unwrap() + 1;
+    base[every] = "10".into();
+    let o = run(
+        &with(
+            base.clone(),
+            &["--workers", "2", "--run-dir", &run_dir.display().to_string(), "--out", &out.display().to_string()],
+        ),
+        Duration::from_secs(240),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = load(&out);
+    let runs = passes(&r);
+    assert_eq!(r["details"]["passes"]["start"], "warm");
+    let estimate = |i: usize| runs[i]["j_estimate"].as_f64().unwrap();
+    let better = if estimate(1) < estimate(0) { 1 } else { 0 };
+    // Pass 1 trains all 40 iterations; passes 2 and 3 the last 10 (from k = 30), each from the
+    // best design so far moved by a kick, at the schedule's α of iteration 30.
+    let history = |p: usize| load(&run_dir.join(format!("pass-{p}/result.json")))["history"].clone();
+    let ks = |p: usize| history(p).as_array().unwrap().iter().map(|h| h["k"].as_u64().unwrap()).collect::<Vec<_>>();
+    assert_eq!(ks(1), (0..40).collect::<Vec<_>>());
+    for p in [2, 3] {
+        assert_eq!(ks(p), (30..40).collect::<Vec<_>>(), "pass {p}");
+        let first = &history(p)[0];
+        // The nominal schedule's α_30 (α_final = α₀/100 over 40 iterations), from α₀ as pass 1
+        // began.
+        let alpha0 = history(1)[0]["alpha"].as_f64().unwrap();
+        let nominal = alpha0 * 0.01f64.powf(30.0 / 39.0);
+        assert!((first["alpha"].as_f64().unwrap() / nominal - 1.0).abs() < 1e-12, "pass {p}: {first}");
+        assert_eq!(first["zeta"], runs[p - 1]["zeta0"], "pass {p} starts at its kicked design");
+        let transitions = |i: usize| runs[i]["transitions"].as_u64().unwrap();
+        assert!(transitions(p - 1) < transitions(0), "a warm pass costs less than pass 1: {runs:?}");
+    }
+    for (p, from) in [(1, 0), (2, better)] {
+        assert_ne!(runs[p]["zeta0"], runs[from]["zeta"], "pass {} is kicked", p + 1);
+    }
+    // The networks carry over: at its first iteration a warm pass's greedy policy is pass 1's
+    // late one (exact J, scored for the record every 10 iterations), not a new network's.
+    let exact = |p: usize, k: u64| {
+        let h = history(p);
+        let row = h.as_array().unwrap().iter().find(|h| h["k"] == k).cloned().unwrap();
+        row["J_exact"].as_f64().unwrap()
+    };
+    let (new, late) = (exact(1, 0), exact(1, 30));
+    for p in [2, 3] {
+        let warm = exact(p, 30);
+        assert!(warm < 2.0 * late && warm < new / 4.0, "pass {p} starts at J {warm}; pass 1 went {new} → {late}");
+    }
+    let kept = r["details"]["passes"]["kept"].as_u64().unwrap() as usize;
+    assert!((0..3).all(|i| estimate(kept - 1) <= estimate(i)), "{runs:?}");
+
+    // Same seed, same result, in one process with one worker.
+    let single = dir.path().join("single.json");
+    let o = run(
+        &with(base, &["--in-process", "--workers", "1", "--out", &single.display().to_string()]),
+        Duration::from_secs(240),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(comparable(&single), comparable(&out));
+
+    // Stopped after pass 3's run description was written and before its warm start was: the
+    // resumed run writes the warm start again and ends as the uninterrupted run did.
+    std::fs::remove_file(run_dir.join("pass-3/result.json")).unwrap();
+    std::fs::remove_file(run_dir.join("pass-3/checkpoint.bin")).unwrap();
+    std::fs::remove_file(&out).unwrap();
+    let o = run(&["--resume".into(), run_dir.display().to_string(), "--quiet".into()], Duration::from_secs(240));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(comparable(&out), comparable(&single));
+    // Without the best pass's final checkpoint there is nothing to start from: refused, exit 2,
+    // naming it.
+    std::fs::remove_file(run_dir.join("pass-3/result.json")).unwrap();
+    std::fs::remove_file(run_dir.join("pass-3/checkpoint.bin")).unwrap();
+    std::fs::remove_file(run_dir.join(format!("pass-{}/checkpoint.bin", better + 1))).unwrap();
+    let o = run(&["--resume".into(), run_dir.display().to_string(), "--quiet".into()], Duration::from_secs(60));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--pass-start warm") && stderr.contains("final checkpoint"), "{stderr}");
 }
 
 #[test]

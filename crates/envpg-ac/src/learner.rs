@@ -416,6 +416,28 @@ impl Learner {
         Ok(())
     }
 
+    /// Sets the learner to train again from iteration `k` at design `zeta` (a warm start):
+    /// the actor, critic, target, their optimisers and the visit averages are kept, so the
+    /// policy carries over; α is the nominal schedule's α_k ([`AcConfig::alpha_at`]); ζ's
+    /// optimiser and the reported design average start anew, as at a new design. With a policy
+    /// lag, the first batch is sampled with the kept actor at `zeta`.
+    pub fn rewind(&mut self, k: u64, mut zeta: Vec<f64>) {
+        assert_eq!(zeta.len(), self.zeta.len(), "zeta dimension");
+        self.space.project(&mut zeta);
+        self.k = k;
+        self.alpha = self.cfg.alpha_at(k as usize);
+        self.zeta_opt = Adam::new(zeta.len(), self.cfg.zeta_lr);
+        self.zeta_sum.iter_mut().for_each(|s| *s = 0.0);
+        self.zeta_count = 0;
+        self.features.set_center(&zeta);
+        self.lagged = (self.cfg.lag > 0 && k > 0).then(|| Behaviour {
+            actor: self.actor.mlp.params().to_vec(),
+            zeta: zeta.clone(),
+            alpha: self.alpha,
+        });
+        self.zeta = zeta;
+    }
+
     /// The critic's Q_φ(s, a, ζ) over the valid actions of `s` (diagnostics and tests).
     pub fn q_values(&mut self, s: usize, zeta: &[f64]) -> Vec<f64> {
         let mut cols = Columns::default();
@@ -1100,6 +1122,43 @@ mod tests {
         assert!(separate.iter().all(|l| l.is_finite() && *l <= 0.0));
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&separate), bits(&shared));
+    }
+
+    #[test]
+    fn a_rewound_learner_keeps_its_networks_and_trains_on_from_iteration_k_at_the_new_design() {
+        let (env, config, streams, mut learner) = uav271_after_two_iterations();
+        let before = learner.state();
+        let mut zeta = before.zeta.clone();
+        zeta[0] += 0.01;
+        let k = config.average_from() as u64;
+        learner.rewind(k, zeta.clone());
+        let after = learner.state();
+        // The policy and critic carry over, with their optimisers and the visit averages.
+        assert_eq!((&after.actor, &after.critic, &after.target), (&before.actor, &before.critic, &before.target));
+        assert_eq!(
+            (&after.actor_opt, &after.critic_opt, &after.visits),
+            (&before.actor_opt, &before.critic_opt, &before.visits)
+        );
+        // The schedule is the nominal one from k, at the new design, averaged anew.
+        assert_eq!((after.k, after.alpha.to_bits()), (k, config.alpha_at(k as usize).to_bits()));
+        assert!(after.alpha < before.alpha, "later in the schedule, cooler");
+        assert_eq!(after.zeta, zeta);
+        assert_eq!((after.zeta_count, after.zeta_sum.iter().all(|s| *s == 0.0)), (0, true));
+        assert_eq!(after.zeta_opt, Adam::new(zeta.len(), config.zeta_lr));
+        // It trains on from there, averaging from its first iteration (k = average_from).
+        advance(env.sampler(), &mut learner, &config, &streams, 1).expect("valid batch");
+        assert_eq!((learner.k(), learner.zeta_count), (k + 1, 1));
+        assert_eq!(learner.reported_zeta(), learner.zeta());
+
+        // With a policy lag, the rewound state is one a learner of that configuration restores.
+        let lagged = AcConfig { lag: 1, ..config };
+        let spec = RunSpec::new(&env, 3, lagged);
+        let (_, mut a) = spec.start_on(&env).expect("valid spec");
+        a.rewind(k, zeta.clone());
+        assert_eq!(a.behaviour().zeta, &zeta[..], "the first batch is sampled at the new design");
+        let (_, mut b) = spec.start_on(&env).expect("valid spec");
+        b.restore(a.state()).expect("a consistent state");
+        assert_eq!(b.state(), a.state());
     }
 
     #[test]

@@ -5,8 +5,9 @@
 //! checkpoints, `result.json`) with the run's settings and a seed of its own ([`pass_seed`]).
 //! Where it starts is [`PassStart`]: the run's `--zeta0`, drawn anew with the pass's seed where
 //! it is drawn (`fresh`, independent passes), the design of the best pass before it
-//! (`best`, the default), or that design moved by noise (`kick`, [`kick_start`]). Passes are
-//! ranked by
+//! (`best`, the default), that design moved by noise (`kick`, [`kick_start`]), or moved by
+//! noise with the best pass's networks kept and the end of the schedule trained again (`warm`,
+//! [`warm_from`]). Passes are ranked by
 //! [`envpg_ac::polish::rank_designs`]: each finished pass's design and greedy policy sampled on
 //! the same episodes, the lowest mean cost first — the environment's sampler only, never its
 //! model. The kept pass's result file, with every pass listed in `details.passes`, is the run's
@@ -43,6 +44,21 @@ pub enum PassStart {
     /// From the design of the best pass so far moved by Gaussian noise ([`kick_start`]):
     /// basin hopping, for a run whose passes keep ending in the same poor basin.
     Kick,
+    /// As `kick`, and the pass trains on from the best pass's networks rather than from new
+    /// ones, over the last [`WARM_FRACTION`] of the schedule only ([`warm_from`]): a local
+    /// search from the kicked design with the policy kept, as the oracle's kicks are.
+    Warm,
+}
+
+/// The share of the schedule a `--pass-start warm` pass trains again: from iteration
+/// [`warm_from`] on, at that iteration's α (the window over which the reported design is
+/// averaged, with the default `zeta_average`).
+pub const WARM_FRACTION: f64 = 0.25;
+
+/// The iteration a `--pass-start warm` pass of a run of `iterations` iterations starts from:
+/// the last `⌈WARM_FRACTION · iterations⌉` are trained again.
+pub fn warm_from(iterations: usize) -> u64 {
+    (iterations - (WARM_FRACTION * iterations as f64).ceil() as usize) as u64
 }
 
 /// Standard deviation of the first kick, relative to each coordinate's scale
@@ -121,22 +137,25 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
         let copy = RunFile::result_copy_path(&pdir);
         // Ranked for every pass, resumed or not (a few milliseconds), so that a resumed run
         // counts the same rankings as an uninterrupted one.
-        let start = match top.pass_start {
+        let best = match top.pass_start {
             PassStart::Fresh => None,
             _ if p == 1 => None,
-            PassStart::Best => Some(best_so_far(&env, &done, &settings, &streams, &mut cost)),
-            PassStart::Kick => {
-                let best = best_so_far(&env, &done, &settings, &streams, &mut cost);
-                Some(kick_start(&best, env.sampler().zeta_space(), &streams, p))
-            }
+            _ => Some(best_so_far(&env, &done, &settings, &streams, &mut cost)),
         };
+        let start = best.map(|b| match top.pass_start {
+            PassStart::Kick | PassStart::Warm => kick_start(&done[b].zeta, env.sampler().zeta_space(), &streams, p),
+            _ => done[b].zeta.clone(),
+        });
+        // `warm`: the pass starts from the best pass's final checkpoint (written, like the
+        // pass's run description, before it trains; rewritten if a resumed run finds none).
+        let warm = best.filter(|_| top.pass_start == PassStart::Warm);
         if !(resuming && copy.exists()) {
             let (run, checkpoint) = if resuming && RunFile::path(&pdir).exists() {
                 let run = RunFile::load(&pdir)?;
                 let checkpoint = if RunFile::checkpoint_path(&pdir).exists() {
                     Some(run.load_checkpoint(&pdir).map_err(|e| InputError(format!("--resume: {e}")))?)
                 } else {
-                    None
+                    warm.map(|b| warm_checkpoint(&run, &pdir, &env, dir, b + 1)).transpose()?
                 };
                 (run, checkpoint)
             } else {
@@ -144,7 +163,8 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
                 envpg_core::io::create_private_dir(&pdir)
                     .with_context(|| format!("creating the pass directory {}", pdir.display()))?;
                 run.save(&pdir)?;
-                (run, None)
+                let checkpoint = warm.map(|b| warm_checkpoint(&run, &pdir, &env, dir, b + 1)).transpose()?;
+                (run, checkpoint)
             };
             let label = format!("pass {p}/{} ", top.passes);
             train_pass(&run, &pdir, checkpoint, launch, registry, &Pass { label, resume_dir: dir })?;
@@ -184,20 +204,54 @@ fn rank(env: &LoadedEnv, done: &[ResultFile], settings: &PolishSettings, streams
     rank_designs(env.sampler(), &designs, settings, streams)
 }
 
-/// The design of the best of the finished passes (`--pass-start best`, `kick`), the ranking's cost
-/// added to `cost`.
+/// The index of the best of the finished passes (`--pass-start best`, `kick`, `warm`), the
+/// ranking's cost added to `cost`.
 fn best_so_far(
     env: &LoadedEnv,
     done: &[ResultFile],
     settings: &PolishSettings,
     streams: &Streams,
     cost: &mut RankingCost,
-) -> Vec<f64> {
+) -> usize {
     if done.len() == 1 {
-        return done[0].zeta.clone();
+        return 0;
     }
-    let (best, _) = cost.time(|| rank(env, done, settings, streams));
-    done[best].zeta.clone()
+    cost.time(|| rank(env, done, settings, streams)).0
+}
+
+/// Writes, as `run`'s checkpoint in `pdir`, the warm start of `run` ([`envpg_learner::warm_start`])
+/// from the final checkpoint of pass `from` of the run in `dir`, at `run`'s ζ₀ (the kicked
+/// design) and iteration [`warm_from`]; returns it.
+fn warm_checkpoint(
+    run: &RunFile,
+    pdir: &Path,
+    env: &LoadedEnv,
+    dir: &Path,
+    from: usize,
+) -> Result<envpg_protocol::Checkpoint> {
+    let fdir = pass_dir(dir, from);
+    let unusable = |e: String| InputError(format!("--pass-start warm: pass {from}'s final checkpoint: {e}"));
+    let source = RunFile::load(&fdir).map_err(|e| unusable(format!("{e:#}")))?;
+    let kept = source.load_checkpoint(&fdir).map_err(|e| unusable(e.to_string()))?;
+    if kept.k != source.spec.config.iterations as u64 {
+        return Err(unusable(format!(
+            "it was written at iteration {} of {}, not at the end of training",
+            kept.k, source.spec.config.iterations
+        ))
+        .into());
+    }
+    let envpg_ac::Zeta0::Given(zeta) = &run.spec.config.zeta0 else {
+        return Err(
+            InputError(format!("{}: a warm pass starts from a given design", RunFile::path(pdir).display())).into()
+        );
+    };
+    let k = warm_from(run.spec.config.iterations);
+    let c = envpg_learner::warm_start(&run.spec, env, &run.run_id, &kept, k, zeta.clone())
+        .map_err(|e| unusable(e.to_string()))?;
+    let path = RunFile::checkpoint_path(pdir);
+    envpg_core::io::write_atomic_with(&path, |w| c.write_to(w))
+        .with_context(|| format!("writing the warm start {}", path.display()))?;
+    Ok(c)
 }
 
 /// Time and transitions spent ranking passes, over the whole run.

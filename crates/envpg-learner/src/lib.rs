@@ -412,6 +412,36 @@ fn write_checkpoint(cfg: &LearnerConfig, learner: &Learner, rec: &Recorder) -> R
         .map_err(|e| LearnerError::Checkpoint(format!("{}: {e}", cp.path.display())))
 }
 
+/// A checkpoint from which the run `run_id` of `spec` trains again from iteration `k` at design
+/// `zeta`, with the networks and optimisers of the finished run checkpointed in `from` (of the
+/// same environment and settings, another seed): a warm start ([`Learner::rewind`]). Its
+/// history, transitions and time are empty: the new run counts only its own.
+pub fn warm_start(
+    spec: &RunSpec,
+    env: &LoadedEnv,
+    run_id: &str,
+    from: &Checkpoint,
+    k: u64,
+    zeta: Vec<f64>,
+) -> Result<Checkpoint, LearnerError> {
+    let (_, mut learner) = spec.start_on(env)?;
+    let st: LearnerState = postcard::from_bytes(&from.learner).map_err(|e| LearnerError::Checkpoint(e.to_string()))?;
+    learner.restore(st).map_err(LearnerError::Checkpoint)?;
+    learner.rewind(k, zeta);
+    let state = postcard::to_allocvec(&learner.state_ref()).map_err(|e| LearnerError::Checkpoint(e.to_string()))?;
+    Ok(Checkpoint {
+        protocol: PROTOCOL_VERSION,
+        run_id: run_id.to_owned(),
+        k,
+        spec_json: serde_json::to_string(spec).map_err(|e| LearnerError::Checkpoint(e.to_string()))?,
+        learner: state,
+        history_json: "[]".into(),
+        transitions: 0,
+        capped: 0,
+        seconds: 0.0,
+    })
+}
+
 /// Reads the set of episode ids of an iteration (for tests and tools).
 pub fn iteration_ids(spec: &RunSpec) -> BTreeSet<EpisodeId> {
     episode_ids(&spec.config).map(|(kind, e)| episode_id(kind, e)).collect()

@@ -139,7 +139,10 @@ class _Progress:
             try:
                 if bar is None:
                     run = json.loads((self.run_dir / "run.json").read_text())
-                    total = run["spec"]["config"]["iterations"] * run.get("passes", 1)
+                    iterations = run["spec"]["config"]["iterations"]
+                    # A warm pass (pass_start="warm") trains the last quarter of the schedule.
+                    later = math.ceil(0.25 * iterations) if run.get("pass_start") == "warm" else iterations
+                    total = iterations + (run.get("passes", 1) - 1) * later
                     bar = self.tqdm(total=total, desc="envpg", unit="it")
                 # A run of several passes (``passes=N``) keeps each pass's metrics in pass-P/.
                 rows = 0
