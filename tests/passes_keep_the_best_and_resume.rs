@@ -1,7 +1,7 @@
 //! `envpg-launch --passes N`: each pass after the first trains with a seed of its own from the
-//! design of the best pass before it (`--pass-start best`, the default), from a ζ₀ of its own
-//! (`fresh`), from the best design moved by noise (`kick`), or from there with the best pass's
-//! networks over the end of the schedule (`warm`); the best pass (ranked by sampled cost) is the
+//! design of the best pass before it (`--pass-start best`), from a ζ₀ of its own (`fresh`), from
+//! the best design moved by noise (`kick`), or from there with the best pass's networks over the
+//! end of the schedule (`warm`, the default); the best pass (ranked by sampled cost) is the
 //! result and every pass is listed;
 //! the same seed gives the same result in every mode, and `--resume` continues a run whose
 //! last pass did not finish, ending as the uninterrupted run does.
@@ -90,7 +90,7 @@ fn fresh_passes_start_anew_and_the_best_is_kept() {
 }
 
 #[test]
-fn by_default_each_pass_starts_from_the_best_design_so_far() {
+fn best_passes_start_from_the_best_design_so_far() {
     let dir = tempfile::tempdir().unwrap();
     let inst = tiny_instance_file(dir.path());
     let out = dir.path().join("best.json");
@@ -100,6 +100,8 @@ fn by_default_each_pass_starts_from_the_best_design_so_far() {
         &[
             "--passes",
             "3",
+            "--pass-start",
+            "best",
             "--in-process",
             "--workers",
             "1",
@@ -194,13 +196,22 @@ fn warm_passes_train_on_from_the_best_pass_over_the_last_quarter_and_resume_alik
     let inst = tiny_instance_file(dir.path());
     let out = dir.path().join("warm.json");
     let run_dir = dir.path().join("run");
-    let mut base = with(small_run(&inst, 4, 40), &["--passes", "3", "--pass-start", "warm"]);
+    let mut base = with(small_run(&inst, 4, 40), &["--passes", "3"]);
     let every = base.iter().position(|a| a == "--eval-every").unwrap() + 1;
     base[every] = "10".into();
     let o = run(
         &with(
             base.clone(),
-            &["--workers", "2", "--run-dir", &run_dir.display().to_string(), "--out", &out.display().to_string()],
+            &[
+                "--pass-start",
+                "warm",
+                "--workers",
+                "2",
+                "--run-dir",
+                &run_dir.display().to_string(),
+                "--out",
+                &out.display().to_string(),
+            ],
         ),
         Duration::from_secs(240),
     );
@@ -245,7 +256,7 @@ fn warm_passes_train_on_from_the_best_pass_over_the_last_quarter_and_resume_alik
     let kept = r["details"]["passes"]["kept"].as_u64().unwrap() as usize;
     assert!((0..3).all(|i| estimate(kept - 1) <= estimate(i)), "{runs:?}");
 
-    // Same seed, same result, in one process with one worker.
+    // Same seed, same result, in one process with one worker; `warm` is the default.
     let single = dir.path().join("single.json");
     let o = run(
         &with(base, &["--in-process", "--workers", "1", "--out", &single.display().to_string()]),
@@ -253,6 +264,7 @@ fn warm_passes_train_on_from_the_best_pass_over_the_last_quarter_and_resume_alik
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(comparable(&single), comparable(&out));
+    assert_eq!(load(&single)["details"]["passes"]["start"], "warm");
 
     // Stopped after pass 3's run description was written and before its warm start was: the
     // resumed run writes the warm start again and ends as the uninterrupted run did.

@@ -95,10 +95,10 @@ struct LaunchArgs {
     /// Continue the run in DIR from its last checkpoint (other options are taken from DIR).
     #[arg(long, value_name = "DIR")]
     resume: Option<PathBuf>,
-    /// Passes of Algorithm 1: each pass trains anew with a seed of its own, from where
+    /// Passes of Algorithm 1: each pass trains again with a seed of its own, from where
     /// `--pass-start` says; the best pass is the result. Passes are ranked model-free, by
     /// their designs' and greedy policies' sampled cost on common episodes (8× the polish's
-    /// episodes per estimate). A way out of a poor basin, at N times the run's cost.
+    /// episodes per estimate). A way out of a poor basin, at up to N times the run's cost.
     #[arg(long, default_value_t = 1)]
     passes: usize,
     /// Where the passes after the first start: `best` (the design of the best pass so far: for
@@ -106,7 +106,7 @@ struct LaunchArgs {
     /// the pass's seed: independent restarts), `kick` (the best design so far moved by
     /// Gaussian noise of 2%, 4%, 8%, 2%, … of each coordinate's scale: basin hopping) or `warm`
     /// (as `kick`, training on from the best pass's final networks over the last quarter of the
-    /// schedule only: a local search with the policy kept). Default `best`; needs `--passes` 2
+    /// schedule only: a local search with the policy kept). Default `warm`; needs `--passes` 2
     /// or more.
     #[arg(long, value_enum)]
     pass_start: Option<passes::PassStart>,

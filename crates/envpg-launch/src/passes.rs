@@ -5,8 +5,8 @@
 //! checkpoints, `result.json`) with the run's settings and a seed of its own ([`pass_seed`]).
 //! Where it starts is [`PassStart`]: the run's `--zeta0`, drawn anew with the pass's seed where
 //! it is drawn (`fresh`, independent passes), the design of the best pass before it
-//! (`best`, the default), that design moved by noise (`kick`, [`kick_start`]), or moved by
-//! noise with the best pass's networks kept and the end of the schedule trained again (`warm`,
+//! (`best`), that design moved by noise (`kick`, [`kick_start`]), or moved by noise with the
+//! best pass's networks kept and the end of the schedule trained again (`warm`, the default,
 //! [`warm_from`]). Passes are ranked by
 //! [`envpg_ac::polish::rank_designs`]: each finished pass's design and greedy policy sampled on
 //! the same episodes, the lowest mean cost first — the environment's sampler only, never its
@@ -28,15 +28,15 @@ use serde_json::json;
 use crate::run_dir::RunFile;
 use crate::{InputError, LaunchArgs, Pass, train_pass};
 
-/// Where the passes after the first start (`--pass-start`). Measured with two passes
-/// (docs/uav-results.md, "Two passes"): tied at 2,000 users, `best` well ahead at 10,000 users
-/// from random starts, where one pass has not finished improving — hence the default.
+/// Where the passes after the first start (`--pass-start`). Measured (docs/uav-results.md,
+/// "Thousands of users"): `warm` ahead of `best` at 2,000 and 10,000 users, and of `fresh` at
+/// 10,000 users, where one pass has not finished improving, for about half a pass's time per
+/// pass — hence the default.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum PassStart {
     /// From the design of the best pass so far: a run that had not finished improving
     /// continues from there.
-    #[default]
     Best,
     /// From the run's `--zeta0`, drawn anew with the pass's seed (`random`, `clustered`):
     /// independent restarts, for a run that ends in a poor basin.
@@ -47,6 +47,7 @@ pub enum PassStart {
     /// As `kick`, and the pass trains on from the best pass's networks rather than from new
     /// ones, over the last [`WARM_FRACTION`] of the schedule only ([`warm_from`]): a local
     /// search from the kicked design with the policy kept, as the oracle's kicks are.
+    #[default]
     Warm,
 }
 
