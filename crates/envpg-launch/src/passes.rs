@@ -1,5 +1,5 @@
-//! `--passes N`: Algorithm 1 run N times, each pass anew with a seed of its own, and the best
-//! pass kept — a model-free way out of a poor basin.
+//! `--passes N`: Algorithm 1 run N times, each pass with a seed of its own, and the best pass
+//! kept — a model-free way out of a poor basin.
 //!
 //! Pass P trains in `DIR/pass-P/` (a run directory of its own: `run.json`, metrics, log,
 //! checkpoints, `result.json`) with the run's settings and a seed of its own ([`pass_seed`]).
