@@ -205,8 +205,7 @@ where
     }
     let mut rec = Recorder::new(spec, &cfg.env, &zeta0);
     if let Some(c) = &cfg.resume {
-        let st: LearnerState = postcard::from_bytes(&c.learner).map_err(|e| LearnerError::Checkpoint(e.to_string()))?;
-        learner.restore(st).map_err(LearnerError::Checkpoint)?;
+        restore_state(&mut learner, c)?;
         let history = serde_json::from_str(&c.history_json).map_err(|e| LearnerError::Checkpoint(e.to_string()))?;
         rec.resume(history, c.transitions, c.capped);
         rec.add_seconds(c.seconds);
@@ -390,19 +389,14 @@ impl<S: Service> Drop for Finish<'_, S> {
 fn write_checkpoint(cfg: &LearnerConfig, learner: &Learner, rec: &Recorder) -> Result<(), LearnerError> {
     let Some(cp) = &cfg.checkpoint else { return Ok(()) };
     let spec = &cfg.spec;
-    let failed = |e: postcard::Error| LearnerError::Checkpoint(e.to_string());
-    // Serialised from the learner's own buffers into one of its exact size, and the file
-    // streamed (`Checkpoint::write_to`): at 10,000 users the state is ~60 MB, and a write that
-    // copied it on the way was the learner's peak memory.
-    let st = learner.state_ref();
-    let len = postcard::experimental::serialized_size(&st).map_err(failed)?;
-    let state = postcard::to_extend(&st, Vec::with_capacity(len)).map_err(failed)?;
+    // The file is streamed (`Checkpoint::write_to`): at 10,000 users the state is ~60 MB, and a
+    // write that copied it on the way was the learner's peak memory.
     let c = Checkpoint {
         protocol: PROTOCOL_VERSION,
         run_id: cfg.run_id.clone(),
         k: learner.k(),
         spec_json: serde_json::to_string(spec).map_err(|e| LearnerError::Checkpoint(e.to_string()))?,
-        learner: state,
+        learner: encode_state(learner)?,
         history_json: serde_json::to_string(rec.history()).map_err(|e| LearnerError::Checkpoint(e.to_string()))?,
         transitions: rec.transitions(),
         capped: rec.capped(),
@@ -425,10 +419,9 @@ pub fn warm_start(
     zeta: Vec<f64>,
 ) -> Result<Checkpoint, LearnerError> {
     let (_, mut learner) = spec.start_on(env)?;
-    let st: LearnerState = postcard::from_bytes(&from.learner).map_err(|e| LearnerError::Checkpoint(e.to_string()))?;
-    learner.restore(st).map_err(LearnerError::Checkpoint)?;
+    restore_state(&mut learner, from)?;
     learner.rewind(k, zeta);
-    let state = postcard::to_allocvec(&learner.state_ref()).map_err(|e| LearnerError::Checkpoint(e.to_string()))?;
+    let state = encode_state(&learner)?;
     Ok(Checkpoint {
         protocol: PROTOCOL_VERSION,
         run_id: run_id.to_owned(),
@@ -440,6 +433,21 @@ pub fn warm_start(
         capped: 0,
         seconds: 0.0,
     })
+}
+
+/// The learner's state as a checkpoint carries it: serialised from the learner's own buffers
+/// into one vector of its exact size (no copy of θ, φ, φ⁻ on the way).
+fn encode_state(learner: &Learner) -> Result<Vec<u8>, LearnerError> {
+    let failed = |e: postcard::Error| LearnerError::Checkpoint(e.to_string());
+    let st = learner.state_ref();
+    let len = postcard::experimental::serialized_size(&st).map_err(failed)?;
+    postcard::to_extend(&st, Vec::with_capacity(len)).map_err(failed)
+}
+
+/// Restores `learner` to the state checkpointed in `c`.
+fn restore_state(learner: &mut Learner, c: &Checkpoint) -> Result<(), LearnerError> {
+    let st: LearnerState = postcard::from_bytes(&c.learner).map_err(|e| LearnerError::Checkpoint(e.to_string()))?;
+    learner.restore(st).map_err(LearnerError::Checkpoint)
 }
 
 /// Reads the set of episode ids of an iteration (for tests and tools).
