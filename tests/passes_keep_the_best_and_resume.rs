@@ -1,7 +1,7 @@
 //! `envpg-launch --passes N`: each pass after the first trains with a seed of its own from the
 //! design of the best pass before it (`--pass-start best`), from a ζ₀ of its own (`fresh`), from
-//! the best design moved by noise (`kick`), or from there with the best pass's networks over the
-//! end of the schedule (`warm`, the default); the best pass (ranked by sampled cost) is the
+//! the best design moved by noise (`kick`), from there with the best pass's networks over the
+//! end of the schedule (`warm`, the default), or half fresh then warm (`portfolio`); the best pass (ranked by sampled cost) is the
 //! result and every pass is listed;
 //! the same seed gives the same result in every mode, and `--resume` continues a run whose
 //! last pass did not finish, ending as the uninterrupted run does.
@@ -283,6 +283,76 @@ fn warm_passes_train_on_from_the_best_pass_over_the_last_quarter_and_resume_alik
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("--pass-start warm") && stderr.contains("final checkpoint"), "{stderr}");
+}
+
+#[test]
+fn a_portfolio_runs_its_first_half_as_fresh_passes_then_warm_ones_from_the_best_of_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let inst = tiny_instance_file(dir.path());
+    let (out, fresh) = (dir.path().join("portfolio.json"), dir.path().join("fresh.json"));
+    let run_dir = dir.path().join("run");
+    let base = with(small_run(&inst, 4, 40), &["--in-process", "--workers", "1"]);
+    let o = run(
+        &with(
+            base.clone(),
+            &[
+                "--passes",
+                "4",
+                "--pass-start",
+                "portfolio",
+                "--run-dir",
+                &run_dir.display().to_string(),
+                "--out",
+                &out.display().to_string(),
+            ],
+        ),
+        Duration::from_secs(240),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(
+        &with(base, &["--passes", "2", "--pass-start", "fresh", "--out", &fresh.display().to_string()]),
+        Duration::from_secs(240),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = load(&out);
+    let runs = passes(&r);
+    assert_eq!(r["details"]["passes"]["start"], "portfolio");
+    // Passes 1 and 2 (the first half) are the two fresh passes of a `fresh` run, bit for bit,
+    // sampled cost in the ranking included (each design is sampled on the same episodes
+    // whatever else is ranked with it).
+    let without_seconds = |p: &serde_json::Value| {
+        let mut p = p.clone();
+        p["seconds"] = serde_json::Value::Null;
+        p
+    };
+    let fresh = load(&fresh);
+    for i in 0..2 {
+        assert_eq!(without_seconds(&runs[i]), without_seconds(&passes(&fresh)[i]), "pass {}", i + 1);
+    }
+    // Passes 3 and 4 are warm: the last quarter of the schedule, from the best pass so far
+    // (by sampled cost in the ranking before each) kicked by 2% and then 4% of the scale.
+    let ks = |p: usize| {
+        let h = load(&run_dir.join(format!("pass-{p}/result.json")))["history"].clone();
+        h.as_array().unwrap().iter().map(|h| h["k"].as_u64().unwrap()).collect::<Vec<_>>()
+    };
+    assert_eq!(ks(2), (0..40).collect::<Vec<_>>());
+    assert_eq!(ks(3), (30..40).collect::<Vec<_>>());
+    assert_eq!(ks(4), (30..40).collect::<Vec<_>>());
+    let scale =
+        envpg_envs::uav::UavNetwork::new(support::tiny_instance(20, 3, 5), 0.9, 1.0).unwrap().zeta_space().scale()[0];
+    let vec = |v: &serde_json::Value| -> Vec<f64> { serde_json::from_value(v.clone()).unwrap() };
+    let kicked_from = |p: usize, relative: f64| {
+        let start = vec(&runs[p - 1]["zeta0"]);
+        (0..p - 1).find(|&i| {
+            let moved = start.iter().zip(vec(&runs[i]["zeta"])).map(|(a, b)| (a - b) / (relative * scale));
+            moved.clone().all(|m| m != 0.0 && m.abs() < 6.0)
+        })
+    };
+    assert!(kicked_from(3, 0.02).is_some(), "pass 3 starts near pass 1's or 2's design: {runs:?}");
+    assert!(kicked_from(4, 0.04).is_some(), "pass 4 starts near an earlier pass's design: {runs:?}");
+    let kept = r["details"]["passes"]["kept"].as_u64().unwrap() as usize;
+    let estimate = |i: usize| runs[i]["j_estimate"].as_f64().unwrap();
+    assert!((0..4).all(|i| estimate(kept - 1) <= estimate(i)), "{runs:?}");
 }
 
 #[test]

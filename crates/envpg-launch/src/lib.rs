@@ -104,10 +104,11 @@ struct LaunchArgs {
     /// Where the passes after the first start: `best` (the design of the best pass so far: for
     /// a run that had not finished improving), `fresh` (the run's `--zeta0`, drawn anew with
     /// the pass's seed: independent restarts), `kick` (the best design so far moved by
-    /// Gaussian noise of 2%, 4%, 8%, 2%, … of each coordinate's scale: basin hopping) or `warm`
+    /// Gaussian noise of 2%, 4%, 8%, 2%, … of each coordinate's scale: basin hopping), `warm`
     /// (as `kick`, training on from the best pass's final networks over the last quarter of the
-    /// schedule only: a local search with the policy kept). Default `warm`; needs `--passes` 2
-    /// or more.
+    /// schedule only: a local search with the policy kept) or `portfolio` (the first half of
+    /// the passes, rounded up, `fresh`, the rest `warm`). Default `warm`; needs `--passes` 2 or
+    /// more.
     #[arg(long, value_enum)]
     pass_start: Option<passes::PassStart>,
     /// Extra real compute per environment step in the workers, in microseconds (benchmarks).

@@ -5,9 +5,10 @@
 //! checkpoints, `result.json`) with the run's settings and a seed of its own ([`pass_seed`]).
 //! Where it starts is [`PassStart`]: the run's `--zeta0`, drawn anew with the pass's seed where
 //! it is drawn (`fresh`, independent passes), the design of the best pass before it
-//! (`best`), that design moved by noise (`kick`, [`kick_start`]), or moved by noise with the
+//! (`best`), that design moved by noise (`kick`, [`kick_start`]), moved by noise with the
 //! best pass's networks kept and the end of the schedule trained again (`warm`, the default,
-//! [`warm_from`]). Passes are ranked by
+//! [`warm_from`]), or the first half `fresh` and the rest `warm` (`portfolio`,
+//! [`PassStart::of_pass`]). Passes are ranked by
 //! [`envpg_ac::polish::rank_designs`]: each finished pass's design and greedy policy sampled on
 //! the same episodes, the lowest mean cost first — the environment's sampler only, never its
 //! model. The kept pass's result file, with every pass listed in `details.passes`, is the run's
@@ -49,6 +50,29 @@ pub enum PassStart {
     /// search from the kicked design with the policy kept, as the oracle's kicks are.
     #[default]
     Warm,
+    /// The first half of the passes (rounded up, [`fresh_passes`]) as `fresh`, the rest as
+    /// `warm` from the best of all passes so far, their kicks 2%, 4%, 8%, … from the first
+    /// warm pass on: independent restarts, then a local search from the best — the oracle's
+    /// portfolio of restarts and kicks, for runs where either alone misses the best basin.
+    Portfolio,
+}
+
+impl PassStart {
+    /// How pass `p` (from 2) of `passes` starts, as one of `best`, `fresh`, `kick` or `warm`,
+    /// and the index of its kick among the run's kicked passes (0 for the first).
+    pub fn of_pass(self, p: usize, passes: usize) -> (PassStart, usize) {
+        match self {
+            PassStart::Portfolio if p <= fresh_passes(passes) => (PassStart::Fresh, 0),
+            PassStart::Portfolio => (PassStart::Warm, p - fresh_passes(passes) - 1),
+            start => (start, p - 2),
+        }
+    }
+}
+
+/// The passes a `--pass-start portfolio` run of `passes` passes starts `fresh`: the first
+/// `⌈passes / 2⌉` (pass 1 included).
+pub fn fresh_passes(passes: usize) -> usize {
+    passes.div_ceil(2)
 }
 
 /// The share of the schedule a `--pass-start warm` pass trains again: from iteration
@@ -71,11 +95,18 @@ pub const KICK_SCALE: f64 = 0.02;
 /// Stream key of the kicks' noise.
 const PASS_KICKS: u64 = 0x6b69_636b;
 
-/// The start of pass `p` (from 2) with `--pass-start kick`: `best` moved by
+/// The start of pass `p` (from 2), the run's kick number `kick` (from 0; `p − 2` with
+/// `--pass-start kick` or `warm`, [`PassStart::of_pass`]): `best` moved by
 /// [`ZetaSpace::kick`](envpg_core::ZetaSpace::kick) with relative standard deviation
-/// `KICK_SCALE · 2^((p − 2) mod 3)`, from the run's `streams` keyed by the pass.
-pub(crate) fn kick_start(best: &[f64], space: &envpg_core::ZetaSpace, streams: &Streams, p: usize) -> Vec<f64> {
-    let relative = KICK_SCALE * f64::from(1u32 << ((p - 2) % 3));
+/// `KICK_SCALE · 2^(kick mod 3)`, from the run's `streams` keyed by the pass.
+pub(crate) fn kick_start(
+    best: &[f64],
+    space: &envpg_core::ZetaSpace,
+    streams: &Streams,
+    p: usize,
+    kick: usize,
+) -> Vec<f64> {
+    let relative = KICK_SCALE * f64::from(1u32 << (kick % 3));
     space.kick(best, relative, &mut streams.stream(Purpose::Other, PASS_KICKS, p as u64))
 }
 
@@ -138,18 +169,20 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
         let copy = RunFile::result_copy_path(&pdir);
         // Ranked for every pass, resumed or not (a few milliseconds), so that a resumed run
         // counts the same rankings as an uninterrupted one.
-        let best = match top.pass_start {
+        let (mode, kick) = if p == 1 { (PassStart::Fresh, 0) } else { top.pass_start.of_pass(p, top.passes) };
+        let best = match mode {
             PassStart::Fresh => None,
-            _ if p == 1 => None,
             _ => Some(best_so_far(&env, &done, &settings, &streams, &mut cost)),
         };
-        let start = best.map(|b| match top.pass_start {
-            PassStart::Kick | PassStart::Warm => kick_start(&done[b].zeta, env.sampler().zeta_space(), &streams, p),
+        let start = best.map(|b| match mode {
+            PassStart::Kick | PassStart::Warm => {
+                kick_start(&done[b].zeta, env.sampler().zeta_space(), &streams, p, kick)
+            }
             _ => done[b].zeta.clone(),
         });
         // `warm`: the pass starts from the best pass's final checkpoint (written, like the
         // pass's run description, before it trains; rewritten if a resumed run finds none).
-        let warm = best.filter(|_| top.pass_start == PassStart::Warm);
+        let warm = best.filter(|_| mode == PassStart::Warm);
         if !(resuming && copy.exists()) {
             let (run, checkpoint) = if resuming && RunFile::path(&pdir).exists() {
                 let run = RunFile::load(&pdir)?;
@@ -334,6 +367,19 @@ mod tests {
     }
 
     #[test]
+    fn a_portfolio_starts_its_first_half_fresh_and_the_rest_warm_with_kicks_from_the_smallest() {
+        let plan = |passes: usize| (2..=passes).map(|p| PassStart::Portfolio.of_pass(p, passes)).collect::<Vec<_>>();
+        use PassStart::{Fresh, Warm};
+        assert_eq!(plan(2), [(Warm, 0)], "one fresh pass (the first), one warm");
+        assert_eq!(plan(3), [(Fresh, 0), (Warm, 0)]);
+        assert_eq!(plan(5), [(Fresh, 0), (Fresh, 0), (Warm, 0), (Warm, 1)]);
+        assert_eq!(plan(6), [(Fresh, 0), (Fresh, 0), (Warm, 0), (Warm, 1), (Warm, 2)]);
+        // The other starts are the same for every pass, their kicks counted from pass 2.
+        assert_eq!(PassStart::Warm.of_pass(5, 5), (Warm, 3));
+        assert_eq!(PassStart::Best.of_pass(2, 3), (PassStart::Best, 0));
+    }
+
+    #[test]
     fn kicks_grow_twofold_over_three_passes_then_start_again_with_noise_of_their_own() {
         let d = 4000;
         let space = envpg_core::ZetaSpace::with_scales(
@@ -345,14 +391,14 @@ mod tests {
         )
         .unwrap();
         let zero = vec![0.0; d];
-        let kicks: Vec<Vec<f64>> = (2..=5).map(|p| kick_start(&zero, &space, &Streams::new(9), p)).collect();
+        let kicks: Vec<Vec<f64>> = (2..=5).map(|p| kick_start(&zero, &space, &Streams::new(9), p, p - 2)).collect();
         // Pass p: N(0, (KICK_SCALE · 10 · 2^((p − 2) mod 3))²) per coordinate; sd within 5%.
         for (k, factor) in [1.0, 2.0, 4.0, 1.0].into_iter().enumerate() {
             let want = KICK_SCALE * 10.0 * factor;
             assert!((sd(&kicks[k]) / want - 1.0).abs() < 0.05, "pass {}: sd {} want {want}", k + 2, sd(&kicks[k]));
         }
         assert_ne!(kicks[0], kicks[3], "passes 2 and 5 kick alike in size, not in direction");
-        assert_eq!(kick_start(&zero, &space, &Streams::new(9), 3), kicks[1], "same seed and pass, same kick");
-        assert_ne!(kick_start(&zero, &space, &Streams::new(10), 3), kicks[1], "another run seed, another kick");
+        assert_eq!(kick_start(&zero, &space, &Streams::new(9), 3, 1), kicks[1], "same seed and pass, same kick");
+        assert_ne!(kick_start(&zero, &space, &Streams::new(10), 3, 1), kicks[1], "another run seed, another kick");
     }
 }

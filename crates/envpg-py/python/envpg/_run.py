@@ -140,9 +140,12 @@ class _Progress:
                 if bar is None:
                     run = json.loads((self.run_dir / "run.json").read_text())
                     iterations = run["spec"]["config"]["iterations"]
-                    # A warm pass (pass_start="warm") trains the last quarter of the schedule.
-                    later = math.ceil(0.25 * iterations) if run.get("pass_start") == "warm" else iterations
-                    total = iterations + (run.get("passes", 1) - 1) * later
+                    # A warm pass trains the last quarter of the schedule (WARM_FRACTION in
+                    # envpg-launch's passes.rs): every pass after the first with
+                    # pass_start="warm", those after the first half (rounded up) with "portfolio".
+                    passes, start = run.get("passes", 1), run.get("pass_start")
+                    full = {"warm": 1, "portfolio": (passes + 1) // 2}.get(start, passes)
+                    total = full * iterations + (passes - full) * math.ceil(0.25 * iterations)
                     bar = self.tqdm(total=total, desc="envpg", unit="it")
                 # A run of several passes (``passes=N``) keeps each pass's metrics in pass-P/.
                 rows = 0
