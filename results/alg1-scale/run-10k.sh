@@ -8,7 +8,8 @@
 # passes from clustered ζ₀, three kicked passes from clustered ζ₀ (`--pass-start kick`: each later
 # pass from the best design so far moved by noise), five warm passes from clustered ζ₀
 # (`--pass-start warm`: kicked, with the best pass's networks, over the last quarter of the
-# schedule), and one clustered pass with five times the polish's iterations, against
+# schedule), five portfolio passes from clustered ζ₀ (`--pass-start portfolio`: three fresh,
+# then two warm), and one clustered pass with five times the polish's iterations, against
 # the best design known there. Writes alg1-10k-*.json (result files: `envpg evaluate FILE`
 # recomputes each J) and table-10k.md; result files already there are kept. Run from the
 # repository root: bash results/alg1-scale/run-10k.sh (≈ 90 min on 2 cores).
@@ -45,6 +46,8 @@ run "$out/alg1-10k-uav-large-clustered-passes3-kick.json" --preset uav-large --z
     --pass-start kick
 run "$out/alg1-10k-uav-large-clustered-passes5-warm.json" --preset uav-large --zeta0 clustered --passes 5 \
     --pass-start warm
+run "$out/alg1-10k-uav-large-clustered-passes5-portfolio.json" --preset uav-large --zeta0 clustered --passes 5 \
+    --pass-start portfolio
 python3 - "$out" "$name" <<'PY'
 import glob, json, sys
 out, name = sys.argv[1:]
@@ -78,7 +81,9 @@ with open(f"{out}/table-10k.md", "w") as f:
                                    (f"{out}/alg1-10k-uav-large-clustered-passes3-kick.json", "uav-large",
                                     "`--zeta0 clustered --passes 3 --pass-start kick`"),
                                    (f"{out}/alg1-10k-uav-large-clustered-passes5-warm.json", "uav-large",
-                                    "`--zeta0 clustered --passes 5 --pass-start warm`")):
+                                    "`--zeta0 clustered --passes 5 --pass-start warm`"),
+                                   (f"{out}/alg1-10k-uav-large-clustered-passes5-portfolio.json", "uav-large",
+                                    "`--zeta0 clustered --passes 5 --pass-start portfolio`")):
         r = json.load(open(file))
         before = ((r.get("details") or {}).get("polish") or {}).get("J_before")
         alone = f"{100 * (before / best - 1):+.2f}%" if before else "—"
