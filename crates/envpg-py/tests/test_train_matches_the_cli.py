@@ -86,3 +86,15 @@ def test_passes_keep_each_pass_in_its_directory_and_the_best_as_the_result(envpg
     for p in (1, 2):
         rows = (r.run_dir / f"pass-{p}" / "metrics.csv").read_text().splitlines()
         assert len(rows) == 1 + 30
+
+
+@pytest.mark.parametrize("start", ["warm", "portfolio"])
+def test_the_progress_bar_counts_the_iterations_every_pass_trains(start, runs_dir):
+    # Four passes of 30 iterations: `warm` trains 30 + 3 × 8, `portfolio` 2 × 30 + 2 × 8
+    # (its first half fresh); the bar's total is what the passes' metrics record.
+    r = envpg.train("flpo-n10m4", seed=2, iterations=30, polish_iterations=0, passes=4, pass_start=start,
+                    progress=False)
+    trained = sum(len((r.run_dir / f"pass-{p}" / "metrics.csv").read_text().splitlines()) - 1 for p in range(1, 5))
+    assert trained == {"warm": 54, "portfolio": 76}[start]
+    run = json.loads((r.run_dir / "run.json").read_text())
+    assert envpg._run.planned_iterations(run) == trained

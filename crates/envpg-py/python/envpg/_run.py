@@ -29,6 +29,17 @@ from ._result import Result, load_result
 IN_RUN_PROCESS = False
 
 
+def planned_iterations(run: Mapping[str, Any]) -> int:
+    """The iterations a run (its ``run.json``) trains over all its passes: a warm pass trains
+    the last quarter of the schedule only (``WARM_FRACTION`` in envpg-launch's passes.rs), and
+    is every pass after the first with ``pass_start="warm"``, every pass after the first half
+    (rounded up) with ``"portfolio"``."""
+    iterations = run["spec"]["config"]["iterations"]
+    passes, start = run.get("passes", 1), run.get("pass_start")
+    full = min(passes, {"warm": 1, "portfolio": (passes + 1) // 2}.get(start, passes))
+    return full * iterations + (passes - full) * math.ceil(0.25 * iterations)
+
+
 def _not_in_a_run_process(what: str) -> None:
     if IN_RUN_PROCESS:
         raise RuntimeError(
@@ -139,14 +150,7 @@ class _Progress:
             try:
                 if bar is None:
                     run = json.loads((self.run_dir / "run.json").read_text())
-                    iterations = run["spec"]["config"]["iterations"]
-                    # A warm pass trains the last quarter of the schedule (WARM_FRACTION in
-                    # envpg-launch's passes.rs): every pass after the first with
-                    # pass_start="warm", those after the first half (rounded up) with "portfolio".
-                    passes, start = run.get("passes", 1), run.get("pass_start")
-                    full = {"warm": 1, "portfolio": (passes + 1) // 2}.get(start, passes)
-                    total = full * iterations + (passes - full) * math.ceil(0.25 * iterations)
-                    bar = self.tqdm(total=total, desc="envpg", unit="it")
+                    bar = self.tqdm(total=planned_iterations(run), desc="envpg", unit="it")
                 # A run of several passes (``passes=N``) keeps each pass's metrics in pass-P/.
                 rows = 0
                 for metrics in [self.run_dir / "metrics.csv", *self.run_dir.glob("pass-*/metrics.csv")]:
