@@ -200,7 +200,9 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
                 let checkpoint = warm.map(|b| warm_checkpoint(&run, &pdir, &env, dir, b + 1)).transpose()?;
                 (run, checkpoint)
             };
-            let label = format!("pass {p}/{} ", top.passes);
+            // The progress line names how the pass starts (`pass 4/5 warm `).
+            let how = clap::ValueEnum::to_possible_value(&mode).map_or(String::new(), |v| format!("{} ", v.get_name()));
+            let label = format!("pass {p}/{} {how}", top.passes);
             train_pass(&run, &pdir, checkpoint, launch, registry, &Pass { label, resume_dir: dir })?;
         }
         done.push(ResultFile::load(&copy).with_context(|| format!("reading pass {p}'s result"))?);
