@@ -353,6 +353,11 @@ fn a_portfolio_runs_its_first_half_as_fresh_passes_then_warm_ones_from_the_best_
     let kept = r["details"]["passes"]["kept"].as_u64().unwrap() as usize;
     let estimate = |i: usize| runs[i]["j_estimate"].as_f64().unwrap();
     assert!((0..4).all(|i| estimate(kept - 1) <= estimate(i)), "{runs:?}");
+    // The run's transitions are its passes' and one scoring of each pass in the rankings
+    // (before passes 3 and 4 and at the end), however many rankings it took part in.
+    let sum = |key: &str| runs.iter().map(|p| p[key].as_u64().unwrap()).sum::<u64>();
+    assert!(runs.iter().all(|p| p["ranking_transitions"].as_u64().unwrap() > 0), "{runs:?}");
+    assert_eq!(r["details"]["transitions"].as_u64().unwrap(), sum("transitions") + sum("ranking_transitions"));
 }
 
 #[test]

@@ -9,9 +9,9 @@
 //! best pass's networks kept and the end of the schedule trained again (`warm`, the default,
 //! [`warm_from`]), or the first half `fresh` and the rest `warm` (`portfolio`,
 //! [`PassStart::of_pass`]). Passes are ranked by
-//! [`envpg_ac::polish::rank_designs`]: each finished pass's design and greedy policy sampled on
+//! [`envpg_ac::polish::score_designs`]: each finished pass's design and greedy policy sampled on
 //! the same episodes, the lowest mean cost first — the environment's sampler only, never its
-//! model. The kept pass's result file, with every pass listed in `details.passes`, is the run's
+//! model; each pass is scored once, when first ranked. The kept pass's result file, with every pass listed in `details.passes`, is the run's
 //! result. A pass whose `result.json` exists is done,
 //! so `--resume DIR` continues with the first pass that is not.
 
@@ -20,7 +20,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use envpg_ac::Zeta0;
-use envpg_ac::polish::{PolishSettings, RankScore, rank_designs};
+use envpg_ac::polish::{PolishSettings, RankScore, best_of, score_designs};
 use envpg_core::policy::actions_from_rows;
 use envpg_core::{LoadedEnv, Purpose, Registry, ResultFile, Streams};
 use rand::Rng;
@@ -163,6 +163,9 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
     let settings = top.spec.config.polish();
     let streams = Streams::new(top.spec.seed);
     let mut done: Vec<ResultFile> = Vec::with_capacity(top.passes);
+    // Each finished pass is scored once, when first ranked: its score does not depend on what
+    // it is ranked with.
+    let mut scores: Vec<RankScore> = Vec::with_capacity(top.passes);
     let mut cost = RankingCost::default();
     for p in 1..=top.passes {
         let pdir = pass_dir(dir, p);
@@ -172,7 +175,7 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
         let (mode, kick) = if p == 1 { (PassStart::Fresh, 0) } else { top.pass_start.of_pass(p, top.passes) };
         let best = match mode {
             PassStart::Fresh => None,
-            _ => Some(best_so_far(&env, &done, &settings, &streams, &mut cost)),
+            _ => Some(best_so_far(&env, &done, &settings, &streams, &mut scores, &mut cost)),
         };
         let start = best.map(|b| match mode {
             PassStart::Kick | PassStart::Warm => {
@@ -207,7 +210,8 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
         }
         done.push(ResultFile::load(&copy).with_context(|| format!("reading pass {p}'s result"))?);
     }
-    let ranked = cost.time(|| rank(&env, &done, &settings, &streams));
+    score_new(&env, &done, &settings, &streams, &mut scores, &mut cost);
+    let ranked = (best_of(&scores), scores);
     let result = combine(top, &done, &ranked, &cost, envpg_ac::polish::RANKING_EPISODES * settings.episodes.max(1));
     crate::run_dir::save_result(&result, &top.out, dir)?;
     if !launch.quiet {
@@ -233,26 +237,38 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
     Ok(())
 }
 
-/// [`rank_designs`] of the finished passes' designs and greedy policies.
-fn rank(env: &LoadedEnv, done: &[ResultFile], settings: &PolishSettings, streams: &Streams) -> (usize, Vec<RankScore>) {
+/// Scores ([`score_designs`]) the designs and greedy policies of the finished passes that
+/// `scores` does not hold yet, appending them; the cost is added to `cost`.
+fn score_new(
+    env: &LoadedEnv,
+    done: &[ResultFile],
+    settings: &PolishSettings,
+    streams: &Streams,
+    scores: &mut Vec<RankScore>,
+    cost: &mut RankingCost,
+) {
     let designs: Vec<(Vec<f64>, Vec<usize>)> =
-        done.iter().map(|r| (r.zeta.clone(), actions_from_rows(env.sampler(), &r.policy))).collect();
-    rank_designs(env.sampler(), &designs, settings, streams)
+        done[scores.len()..].iter().map(|r| (r.zeta.clone(), actions_from_rows(env.sampler(), &r.policy))).collect();
+    if !designs.is_empty() {
+        scores.extend(cost.time(|| score_designs(env.sampler(), &designs, settings, streams)));
+    }
 }
 
-/// The index of the best of the finished passes (`--pass-start best`, `kick`, `warm`), the
-/// ranking's cost added to `cost`.
+/// The index of the best of the finished passes (`--pass-start best`, `kick`, `warm`,
+/// `portfolio`), scoring those not scored yet ([`score_new`]).
 fn best_so_far(
     env: &LoadedEnv,
     done: &[ResultFile],
     settings: &PolishSettings,
     streams: &Streams,
+    scores: &mut Vec<RankScore>,
     cost: &mut RankingCost,
 ) -> usize {
     if done.len() == 1 {
         return 0;
     }
-    cost.time(|| rank(env, done, settings, streams)).0
+    score_new(env, done, settings, streams, scores, cost);
+    best_of(scores)
 }
 
 /// Writes, as `run`'s checkpoint in `pdir`, the warm start of `run` ([`envpg_learner::warm_start`])
@@ -298,18 +314,19 @@ struct RankingCost {
 }
 
 impl RankingCost {
-    fn time(&mut self, f: impl FnOnce() -> (usize, Vec<RankScore>)) -> (usize, Vec<RankScore>) {
+    fn time(&mut self, f: impl FnOnce() -> Vec<RankScore>) -> Vec<RankScore> {
         let started = Instant::now();
-        let ranked = f();
+        let scores = f();
         self.seconds += started.elapsed().as_secs_f64();
-        self.transitions += ranked.1.iter().map(|s| s.transitions).sum::<u64>();
-        ranked
+        self.transitions += scores.iter().map(|s| s.transitions).sum::<u64>();
+        scores
     }
 }
 
 /// The run's result: the kept pass's result file, its `seconds` and `details.transitions` the
 /// whole run's (every pass and the ranking), `details.passes` each pass's design, sampled cost
-/// in the ranking, J (scored for the record, not used to rank), time and transitions.
+/// in the ranking, J (scored for the record, not used to rank), time, transitions and the
+/// transitions of its one scoring in the ranking.
 fn combine(
     top: &RunFile,
     done: &[ResultFile],
@@ -337,6 +354,7 @@ fn combine(
                 "J": r.j,
                 "seconds": r.seconds,
                 "transitions": transitions(r),
+                "ranking_transitions": s.transitions,
             })
         })
         .collect();

@@ -50,7 +50,7 @@ use envpg_core::{ParamMdp, Purpose, Streams, ZetaSpace};
 pub use improve::{PolicyProposal, improve_policy};
 use rand::RngExt;
 use rand_distr::StandardNormal;
-pub use rank::{RANKING_EPISODES, RankScore, rank_designs};
+pub use rank::{RANKING_EPISODES, RankScore, best_of, rank_designs, score_designs};
 use serde::{Deserialize, Serialize};
 
 /// Settings of the polish (copied from [`crate::AcConfig`]).

@@ -30,10 +30,42 @@ pub struct RankScore {
     pub transitions: u64,
 }
 
+impl RankScore {
+    /// The ranking's order, the polish's: a score that loops after any that does not (fewer
+    /// capped episodes first among those that loop), then by sampled cost.
+    pub fn rank(&self, other: &RankScore) -> std::cmp::Ordering {
+        let key = |x: &RankScore| (x.loops, if x.loops { x.capped } else { 0 });
+        key(self).cmp(&key(other)).then(self.j_estimate.total_cmp(&other.j_estimate))
+    }
+}
+
+/// The index of the best of `scores` by [`RankScore::rank`]; ties go to the earlier one.
+pub fn best_of(scores: &[RankScore]) -> usize {
+    // min_by keeps the first of equal elements.
+    (0..scores.len()).min_by(|&a, &b| scores[a].rank(&scores[b])).expect("best_of needs a score")
+}
+
 /// Samples each `(design, policy)` of `designs` (one action per state) on
-/// `RANKING_EPISODES · s.episodes` common episodes of `streams` and returns the index of the
-/// best and every score. Ties go to the earlier design. Model-free: the environment is only
-/// stepped. Same inputs, same result, whatever the thread count.
+/// `RANKING_EPISODES · s.episodes` common episodes of `streams` and returns its score. A
+/// design's score depends on it and `streams` only, not on what else is scored with it or in
+/// which order, so scores from several calls rank together ([`best_of`]). Model-free: the
+/// environment is only stepped. Same inputs, same result, whatever the thread count.
+pub fn score_designs<E: ParamMdp + Sync + ?Sized>(
+    env: &E,
+    designs: &[(Vec<f64>, Vec<usize>)],
+    s: &PolishSettings,
+    streams: &Streams,
+) -> Vec<RankScore> {
+    let settings = PolishSettings { episodes: RANKING_EPISODES * s.episodes.max(1), z: 0.0, ..*s };
+    let episodes = sampled::Episodes::new(streams, RANKING, settings.episodes);
+    let samples = on_two_threads(designs, |(z, a)| sampled::sampled_cost(env, a, z, &settings, &episodes));
+    samples
+        .iter()
+        .map(|x| RankScore { j_estimate: x.cost, capped: x.capped, loops: x.loops(), transitions: x.steps })
+        .collect()
+}
+
+/// [`score_designs`], and the index of the best ([`best_of`]).
 pub fn rank_designs<E: ParamMdp + Sync + ?Sized>(
     env: &E,
     designs: &[(Vec<f64>, Vec<usize>)],
@@ -41,16 +73,8 @@ pub fn rank_designs<E: ParamMdp + Sync + ?Sized>(
     streams: &Streams,
 ) -> (usize, Vec<RankScore>) {
     assert!(!designs.is_empty(), "rank_designs needs a design");
-    let settings = PolishSettings { episodes: RANKING_EPISODES * s.episodes.max(1), z: 0.0, ..*s };
-    let episodes = sampled::Episodes::new(streams, RANKING, settings.episodes);
-    let samples = on_two_threads(designs, |(z, a)| sampled::sampled_cost(env, a, z, &settings, &episodes));
-    // min_by keeps the first of equal elements: ties go to the earlier design.
-    let best = (0..samples.len()).min_by(|&a, &b| samples[a].rank(&samples[b])).expect("designs");
-    let scores = samples
-        .iter()
-        .map(|x| RankScore { j_estimate: x.cost, capped: x.capped, loops: x.loops(), transitions: x.steps })
-        .collect();
-    (best, scores)
+    let scores = score_designs(env, designs, s, streams);
+    (best_of(&scores), scores)
 }
 
 #[cfg(test)]
@@ -85,6 +109,10 @@ mod tests {
         let (best2, scores2) = rank_designs(&net, &[designs[1].clone(), designs[0].clone()], &settings(), &streams);
         assert_eq!(best2, 1 - lower);
         assert_eq!((&scores2[0], &scores2[1]), (&scores[1], &scores[0]), "the same episodes whatever the order");
+        // Scored alone, each design scores as it did beside the other.
+        for (i, d) in designs.iter().enumerate() {
+            assert_eq!(score_designs(&net, std::slice::from_ref(d), &settings(), &streams), [scores[i].clone()]);
+        }
     }
 
     /// A design listed twice ties and the tie goes to the first; a policy that never reaches
