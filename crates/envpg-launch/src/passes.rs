@@ -30,9 +30,10 @@ use crate::run_dir::RunFile;
 use crate::{InputError, LaunchArgs, Pass, train_pass};
 
 /// Where the passes after the first start (`--pass-start`). Measured (docs/uav-results.md,
-/// "Thousands of users"): `warm` ahead of `best` at 2,000 and 10,000 users, and of `fresh` at
-/// 10,000 users, where one pass has not finished improving, for about half a pass's time per
-/// pass — hence the default.
+/// "Thousands of users"): `warm` ahead of `best` at 2,000 and 10,000 users, of `fresh` at
+/// 10,000 users, where one pass has not finished improving, and of `portfolio` at both (on
+/// held-out instances at 2,000 users, worst run +0.03% against +0.85%), for about half a
+/// pass's time per pass — hence the default.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum PassStart {
