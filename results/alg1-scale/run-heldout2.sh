@@ -28,8 +28,9 @@ for seed in $(seq 17 24); do
         --out "$tmp/$name.json" >/dev/null
     for oseed in 1 2; do
         file="$out/oracle-$name-seed$oseed.json"
-        [ -f "$file" ] || ./target/release/envpg oracle --instance "$tmp/$name.json" --seed "$oseed" \
-            --out "$file" >/dev/null
+        [ -f "$file" ] && continue
+        ./target/release/envpg oracle --instance "$tmp/$name.json" --seed "$oseed" --out "$file" >/dev/null
+        python3 results/alg1-scale/compact.py "$file"
     done
     for run in 1 2 3; do
         for start in warm portfolio; do

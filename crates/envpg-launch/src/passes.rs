@@ -11,9 +11,9 @@
 //! [`PassStart::of_pass`]). Passes are ranked by
 //! [`envpg_ac::polish::score_designs`]: each finished pass's design and greedy policy sampled on
 //! the same episodes, the lowest mean cost first — the environment's sampler only, never its
-//! model; each pass is scored once, when first ranked. The kept pass's result file, with every pass listed in `details.passes`, is the run's
-//! result. A pass whose `result.json` exists is done,
-//! so `--resume DIR` continues with the first pass that is not.
+//! model; each pass is scored once, when first ranked. The kept pass's result file, with every
+//! pass listed in `details.passes`, is the run's result. A pass whose `result.json` exists is
+//! done, so `--resume DIR` continues with the first pass that is not.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
