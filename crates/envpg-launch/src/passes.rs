@@ -164,19 +164,16 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
     let settings = top.spec.config.polish();
     let streams = Streams::new(top.spec.seed);
     let mut done: Vec<ResultFile> = Vec::with_capacity(top.passes);
-    // Each finished pass is scored once, when first ranked: its score does not depend on what
-    // it is ranked with.
-    let mut scores: Vec<RankScore> = Vec::with_capacity(top.passes);
-    let mut cost = RankingCost::default();
+    let mut ranking = Ranking { env: &env, settings, streams, scores: Vec::with_capacity(top.passes), seconds: 0.0 };
     for p in 1..=top.passes {
         let pdir = pass_dir(dir, p);
         let copy = RunFile::result_copy_path(&pdir);
-        // Ranked for every pass, resumed or not (a few milliseconds), so that a resumed run
-        // counts the same rankings as an uninterrupted one.
+        // Ranked before every pass that starts from the best, resumed or not (a few
+        // milliseconds), so that a resumed run scores the passes an uninterrupted one does.
         let (mode, kick) = if p == 1 { (PassStart::Fresh, 0) } else { top.pass_start.of_pass(p, top.passes) };
         let best = match mode {
             PassStart::Fresh => None,
-            _ => Some(best_so_far(&env, &done, &settings, &streams, &mut scores, &mut cost)),
+            _ => Some(ranking.best(&done)),
         };
         let start = best.map(|b| match mode {
             PassStart::Kick | PassStart::Warm => {
@@ -211,18 +208,17 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
         }
         done.push(ResultFile::load(&copy).with_context(|| format!("reading pass {p}'s result"))?);
     }
-    score_new(&env, &done, &settings, &streams, &mut scores, &mut cost);
-    let ranked = (best_of(&scores), scores);
-    let result = combine(top, &done, &ranked, &cost, envpg_ac::polish::RANKING_EPISODES * settings.episodes.max(1));
+    let kept = ranking.best(&done);
+    let result = combine(top, &done, kept, &ranking);
     crate::run_dir::save_result(&result, &top.out, dir)?;
     if !launch.quiet {
         let line = |i: usize, r: &ResultFile| {
             format!(
                 "pass {}: sampled {:.6}, J = {}{}",
                 i + 1,
-                ranked.1[i].j_estimate,
+                ranking.scores[i].j_estimate,
                 r.j.map_or("inf".into(), |j| format!("{j:.6}")),
-                if i == ranked.0 { "  (kept)" } else { "" }
+                if i == kept { "  (kept)" } else { "" }
             )
         };
         for (i, r) in done.iter().enumerate() {
@@ -238,38 +234,43 @@ pub(crate) fn run(top: &RunFile, dir: &Path, resuming: bool, launch: &LaunchArgs
     Ok(())
 }
 
-/// Scores ([`score_designs`]) the designs and greedy policies of the finished passes that
-/// `scores` does not hold yet, appending them; the cost is added to `cost`.
-fn score_new(
-    env: &LoadedEnv,
-    done: &[ResultFile],
-    settings: &PolishSettings,
-    streams: &Streams,
-    scores: &mut Vec<RankScore>,
-    cost: &mut RankingCost,
-) {
-    let designs: Vec<(Vec<f64>, Vec<usize>)> =
-        done[scores.len()..].iter().map(|r| (r.zeta.clone(), actions_from_rows(env.sampler(), &r.policy))).collect();
-    if !designs.is_empty() {
-        scores.extend(cost.time(|| score_designs(env.sampler(), &designs, settings, streams)));
-    }
+/// The model-free ranking of a run's finished passes ([`score_designs`]): each pass is scored
+/// once, when first ranked, since its score does not depend on what it is ranked with.
+struct Ranking<'a> {
+    env: &'a LoadedEnv,
+    settings: PolishSettings,
+    streams: Streams,
+    /// The scores of the passes scored so far, in pass order.
+    scores: Vec<RankScore>,
+    /// Time spent scoring, over the whole run.
+    seconds: f64,
 }
 
-/// The index of the best of the finished passes (`--pass-start best`, `kick`, `warm`,
-/// `portfolio`), scoring those not scored yet ([`score_new`]).
-fn best_so_far(
-    env: &LoadedEnv,
-    done: &[ResultFile],
-    settings: &PolishSettings,
-    streams: &Streams,
-    scores: &mut Vec<RankScore>,
-    cost: &mut RankingCost,
-) -> usize {
-    if done.len() == 1 {
-        return 0;
+impl Ranking<'_> {
+    /// The index of the best of the finished passes `done` ([`best_of`]), scoring those not
+    /// scored yet.
+    fn best(&mut self, done: &[ResultFile]) -> usize {
+        let designs: Vec<(Vec<f64>, Vec<usize>)> = done[self.scores.len()..]
+            .iter()
+            .map(|r| (r.zeta.clone(), actions_from_rows(self.env.sampler(), &r.policy)))
+            .collect();
+        if !designs.is_empty() {
+            let started = Instant::now();
+            self.scores.extend(score_designs(self.env.sampler(), &designs, &self.settings, &self.streams));
+            self.seconds += started.elapsed().as_secs_f64();
+        }
+        best_of(&self.scores)
     }
-    score_new(env, done, settings, streams, scores, cost);
-    best_of(scores)
+
+    /// Environment steps spent scoring: each pass's one scoring.
+    fn transitions(&self) -> u64 {
+        self.scores.iter().map(|s| s.transitions).sum()
+    }
+
+    /// Episodes per score.
+    fn episodes(&self) -> usize {
+        envpg_ac::polish::RANKING_EPISODES * self.settings.episodes.max(1)
+    }
 }
 
 /// Writes, as `run`'s checkpoint in `pdir`, the warm start of `run` ([`envpg_learner::warm_start`])
@@ -307,41 +308,18 @@ fn warm_checkpoint(
     Ok(c)
 }
 
-/// Time and transitions spent ranking passes, over the whole run.
-#[derive(Default)]
-struct RankingCost {
-    seconds: f64,
-    transitions: u64,
-}
-
-impl RankingCost {
-    fn time(&mut self, f: impl FnOnce() -> Vec<RankScore>) -> Vec<RankScore> {
-        let started = Instant::now();
-        let scores = f();
-        self.seconds += started.elapsed().as_secs_f64();
-        self.transitions += scores.iter().map(|s| s.transitions).sum::<u64>();
-        scores
-    }
-}
-
 /// The run's result: the kept pass's result file, its `seconds` and `details.transitions` the
 /// whole run's (every pass and the ranking), `details.passes` each pass's design, sampled cost
 /// in the ranking, J (scored for the record, not used to rank), time, transitions and the
 /// transitions of its one scoring in the ranking.
-fn combine(
-    top: &RunFile,
-    done: &[ResultFile],
-    (kept, scores): &(usize, Vec<RankScore>),
-    cost: &RankingCost,
-    ranking_episodes: usize,
-) -> ResultFile {
-    let mut result = done[*kept].clone();
+fn combine(top: &RunFile, done: &[ResultFile], kept: usize, ranking: &Ranking) -> ResultFile {
+    let mut result = done[kept].clone();
     // The run's seed, which names every pass's (each pass's own is listed with it).
     result.seed = top.spec.seed;
     let transitions = |r: &ResultFile| r.details.as_ref().and_then(|d| d.get("transitions")).and_then(|t| t.as_u64());
     let passes: Vec<serde_json::Value> = done
         .iter()
-        .zip(scores)
+        .zip(&ranking.scores)
         .enumerate()
         .map(|(i, (r, s))| {
             json!({
@@ -359,8 +337,8 @@ fn combine(
             })
         })
         .collect();
-    let total: u64 = done.iter().filter_map(transitions).sum::<u64>() + cost.transitions;
-    result.seconds = Some(done.iter().filter_map(|r| r.seconds).sum::<f64>() + cost.seconds);
+    let total: u64 = done.iter().filter_map(transitions).sum::<u64>() + ranking.transitions();
+    result.seconds = Some(done.iter().filter_map(|r| r.seconds).sum::<f64>() + ranking.seconds);
     let details = result.details.get_or_insert_with(|| json!({}));
     if let Some(d) = details.as_object_mut() {
         d.insert("transitions".into(), json!(total));
@@ -369,8 +347,8 @@ fn combine(
             json!({
                 "kept": kept + 1,
                 "start": top.pass_start,
-                "ranking_episodes": ranking_episodes,
-                "ranking_seconds": cost.seconds,
+                "ranking_episodes": ranking.episodes(),
+                "ranking_seconds": ranking.seconds,
                 "runs": passes,
             }),
         );
