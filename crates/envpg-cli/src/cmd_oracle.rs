@@ -60,6 +60,12 @@ pub struct OracleArgs {
     /// L-BFGS iterations per temperature level.
     #[arg(long)]
     iters_per_level: Option<usize>,
+    /// Levels hotter than the last positive temperature stop once an L-BFGS step is shorter
+    /// than this, in units of the instance's length scale (they only track the minimiser the
+    /// next level starts from); the last level and the polish converge fully. 0: every level
+    /// converges fully [default: 1e-4].
+    #[arg(long)]
+    tracking_tol: Option<f64>,
     /// Symmetry-breaking noise added to ζ at each finite-horizon level: its standard deviation
     /// in units of the instance's length scale [default: 0.001].
     #[arg(long)]
@@ -134,6 +140,9 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
     }
     if let Some(n) = a.iters_per_level {
         cfg.iters_per_level = n;
+    }
+    if let Some(x) = a.tracking_tol {
+        cfg.tracking_tol = x;
     }
     if let Some(x) = a.perturb {
         cfg.perturb = x;
