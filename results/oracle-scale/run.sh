@@ -4,6 +4,9 @@
 # users / 20 UAVs (seeds 1–4), oracle seed 1. Restart 0 of each run is the single-rate anneal. Every
 # instance is also run with other oracle seeds (2–4 at 2,000 users, 2 at 10,000), to know the
 # best design this search finds at all.
+# Designs found outside this search count towards the best known: warm-*-NAME.json (one warm
+# restart from another draw of the users' k-means centres, rerun from its `zeta0`) and
+# earlier-*-NAME.json (the result file of an earlier version of the oracle, kept as it was).
 # Writes oracle-*.json and best-known-*.json (result files: `envpg evaluate FILE` recomputes each
 # J) and table.md.
 # Run from the repository root: bash results/oracle-scale/run.sh (≈ 20 min on 2 cores).
@@ -50,7 +53,8 @@ for path in sorted(glob.glob(f"{out}/oracle-*.json"), key=lambda p: (len(p), p))
     rs = d["restarts"]
     best = rs[d["best_restart"]]
     others = {p: json.load(open(p))["J"]
-              for p in glob.glob(f"{tmp}/{name}-seed*.json") + glob.glob(f"{out}/warm-*-{name}.json")}
+              for p in glob.glob(f"{tmp}/{name}-seed*.json") + glob.glob(f"{out}/warm-*-{name}.json")
+              + glob.glob(f"{out}/earlier-*-{name}.json")}
     known = min([r["J"]] + list(others.values()))
     # Better beyond rounding: another seed reaching the same design is not a better one.
     better = [p for p, j in others.items() if j == known and j < r["J"] * (1 - 1e-9)]
@@ -70,7 +74,8 @@ with open(f"{out}/table.md", "w") as f:
             "*anneal* is restart 0, the single-rate anneal (cooling 0.8); *best known* is the best J of "
             "this run and of the same run with oracle seeds 2–4 (2,000 users) or 2 (10,000 users), kept as "
             "`best-known-*.json` where better, or a design found outside this search (`warm-*.json`: one warm "
-            "restart from another draw of the users' k-means centres, rerun from its `zeta0`); *warm* restarts "
+            "restart from another draw of the users' k-means centres, rerun from its `zeta0`; `earlier-*.json`: "
+            "the result file of an earlier version of the oracle, kept as it was); *warm* restarts "
             "start from the users' k-means centres; *kicks* are the warm restarts after them, from the best "
             "design so far moved by noise; *oracle* is the result (best of restarts and kicks). "
             "Command: `bash results/oracle-scale/run.sh`.\n\n")
