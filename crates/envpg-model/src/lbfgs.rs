@@ -75,9 +75,8 @@ pub fn minimize_in(
 /// [`minimize_in`] with the gradient finished apart from the value: `value(x)` returns `f(x)`
 /// and whatever `grad` needs to compute `∇f(x)` there, and `grad(x, that)` is called only where
 /// the gradient is used — at `x0` and at accepted steps, never at a point the line search backs
-/// off from. A point whose
-/// gradient is undefined (`None`) counts as undefined; the iterates, values and counts are
-/// those of [`minimize_in`] on the pair.
+/// off from. A point whose gradient is undefined (`None`) counts as undefined; the iterates,
+/// values and counts are those of [`minimize_in`] on the pair.
 pub fn minimize_lazy<S>(
     x0: &[f64],
     bounds: Option<(&[f64], &[f64])>,
