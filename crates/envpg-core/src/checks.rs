@@ -52,7 +52,8 @@ pub fn outcome_derivatives<M: ModelMdp + ?Sized>(model: &M, zeta: &[f64], h: f64
 /// The per-state paths ([`ModelMdp::state_outcomes`], [`ModelMdp::accumulate_state_grad`])
 /// against the per-action outcomes, with arbitrary contraction coefficients; every pair's
 /// probabilities sum to 1 and are non-negative; the whole-model expansion
-/// ([`ModelMdp::all_outcomes`]) appends exactly the per-state outcomes, bit for bit.
+/// ([`ModelMdp::all_outcomes`]) appends exactly the per-state outcomes, bit for bit, and so
+/// does [`ModelMdp::outcome_values`] where the model implements it.
 pub fn state_paths<M: ModelMdp + ?Sized>(model: &M, zeta: &[f64]) {
     let mut o = Outcomes::default();
     let d = zeta.len();
@@ -67,6 +68,20 @@ pub fn state_paths<M: ModelMdp + ?Sized>(model: &M, zeta: &[f64]) {
     assert_eq!(ends2, ends, "all_outcomes: ends");
     assert_eq!(bits(&prob2), bits(&prob), "all_outcomes: probabilities");
     assert_eq!(bits(&cost2), bits(&cost), "all_outcomes: costs");
+    // Where the model fills in values only, they are all_outcomes' bits, and its successors are
+    // the same at another design.
+    let (mut prob3, mut cost3) = (vec![1.0], vec![0.5]);
+    if model.outcome_values(zeta, &mut prob3, &mut cost3) {
+        assert_eq!(bits(&prob3), bits(&prob), "outcome_values: probabilities");
+        assert_eq!(bits(&cost3), bits(&cost), "outcome_values: costs");
+        let mut other: Vec<f64> = zeta.iter().map(|z| z + 0.25 * (1.0 + z.abs())).collect();
+        model.zeta_space().project(&mut other);
+        let (mut next4, mut prob4, mut cost4, mut ends4) = (vec![7], vec![1.0], vec![0.5], vec![0, 1]);
+        model.all_outcomes(&other, &mut next4, &mut prob4, &mut cost4, &mut ends4);
+        assert!(next4 == next && ends4 == ends, "outcome_values: the successors change with ζ");
+    } else {
+        assert!(prob3 == [1.0] && cost3 == [0.5], "outcome_values: appended, then declined");
+    }
     for s in 0..model.n_states() {
         let (mut next, mut prob, mut cost, mut ends) = (vec![], vec![], vec![], vec![]);
         model.state_outcomes(s, zeta, &mut next, &mut prob, &mut cost, &mut ends);

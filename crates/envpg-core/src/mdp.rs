@@ -247,6 +247,20 @@ pub trait ModelMdp: ParamMdp {
         }
     }
 
+    /// Appends the probabilities and costs of every outcome, exactly as
+    /// [`ModelMdp::all_outcomes`] would (bit for bit), and returns `true` — for models whose
+    /// successors and outcome counts are the same at every ζ, which then need not be expanded
+    /// again at each design. The default appends nothing and returns `false`, and the whole
+    /// model is expanded with [`ModelMdp::all_outcomes`].
+    ///
+    /// The oracle expands a model at every design it evaluates; for the UAV network at κ = 1
+    /// (every hop reaches its target) this skips writing and comparing the successors of every
+    /// pair each time.
+    fn outcome_values(&self, zeta: &[f64], prob: &mut Vec<f64>, cost: &mut Vec<f64>) -> bool {
+        let _ = (zeta, prob, cost);
+        false
+    }
+
     /// Adds `Σ_o (cp[o]·∂p_o/∂ζ + cc[o]·∂c_o/∂ζ)` over the outcomes of every valid action of `s`
     /// (in [`ModelMdp::state_outcomes`] order) to `grad`; `prob` are those outcomes'
     /// probabilities at `zeta`, as [`ModelMdp::state_outcomes`] returned them.

@@ -251,15 +251,25 @@ impl HopNetwork {
             }
             return;
         }
-        let pos: Vec<[f64; 2]> = (0..self.n_states()).map(|s| self.position(s, zeta)).collect();
         let first = next.len();
         next.extend_from_slice(&self.targets);
+        self.outcome_values(zeta, prob, cost);
+        ends.extend(first + 1..=next.len());
+    }
+
+    /// The probabilities and costs of [`HopNetwork::all_outcomes`] at κ = 1, where every hop
+    /// reaches its target whatever ζ (see `ModelMdp::outcome_values`); `false` below κ = 1.
+    pub fn outcome_values(&self, zeta: &[f64], prob: &mut Vec<f64>, cost: &mut Vec<f64>) -> bool {
+        if self.kappa < 1.0 {
+            return false;
+        }
+        let pos: Vec<[f64; 2]> = (0..self.n_states()).map(|s| self.position(s, zeta)).collect();
         prob.resize(prob.len() + self.targets.len(), 1.0);
         cost.reserve(self.targets.len());
         for (s, &xs) in pos.iter().enumerate() {
             cost.extend(self.targets(s).iter().map(|&t| dist2(pos[t], xs)));
         }
-        ends.extend(first + 1..=next.len());
+        true
     }
 
     /// The gradient contraction of every valid action of `s` (see
@@ -472,9 +482,9 @@ impl HopNetwork {
     }
 }
 
-/// The four model paths of an environment that is a [`HopNetwork`] in its field `hop`
-/// (`outcomes`, `state_outcomes`, `all_outcomes`, `accumulate_state_grad`), for use inside its
-/// `impl ModelMdp`: the UAV network and flpo share the kernel, so they share these too.
+/// The model paths of an environment that is a [`HopNetwork`] in its field `hop` (`outcomes`,
+/// `state_outcomes`, `all_outcomes`, `outcome_values`, `accumulate_state_grad`), for use inside
+/// its `impl ModelMdp`: the UAV network and flpo share the kernel, so they share these too.
 macro_rules! hop_model_paths {
     () => {
         fn outcomes(&self, s: usize, a: usize, zeta: &[f64], grad: bool, out: &mut envpg_core::Outcomes) {
@@ -500,6 +510,9 @@ macro_rules! hop_model_paths {
             ends: &mut Vec<usize>,
         ) {
             self.hop.all_outcomes(zeta, next, prob, cost, ends)
+        }
+        fn outcome_values(&self, zeta: &[f64], prob: &mut Vec<f64>, cost: &mut Vec<f64>) -> bool {
+            self.hop.outcome_values(zeta, prob, cost)
         }
         fn accumulate_state_grad(
             &self,

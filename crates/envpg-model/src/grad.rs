@@ -61,7 +61,8 @@ fn accumulate_with<M: ModelMdp + ?Sized>(
                 let (p, c) = (w * cost[o] + gamma * u, w * prob[o]);
                 cp[o - lo] = p;
                 cc[o - lo] = c;
-                any |= p != 0.0 || c != 0.0;
+                // Without the short circuit: no branch per outcome.
+                any |= (p != 0.0) | (c != 0.0);
             }
         }
         if any {
@@ -154,7 +155,7 @@ pub fn horizon_gradient<M: ModelMdp + ?Sized>(
                 if !untabled {
                     w[ws.wrapping_add(sa)] += wh;
                 }
-                for o in out_start[sa]..out_start[sa + 1] {
+                for o in snap.outs(sa) {
                     let t = next[o];
                     if !untabled {
                         u[us.wrapping_add(o)] += wh * vnext[t];

@@ -27,9 +27,9 @@ pub struct Snapshot {
     /// Global action of each state–action pair.
     pub sa_action: Arc<Vec<usize>>,
     /// `out_start[sa]..out_start[sa+1]` are the outcomes of pair `sa`.
-    pub out_start: Vec<usize>,
+    pub out_start: Arc<Vec<usize>>,
     /// Successor state of each outcome.
-    pub next: Vec<usize>,
+    pub next: Arc<Vec<usize>>,
     /// Probability of each outcome.
     pub prob: Vec<f64>,
     /// Cost of each outcome.
@@ -41,6 +41,9 @@ pub struct Snapshot {
     /// The finite-horizon stages of this transition structure, computed on first use and
     /// shared, like `sccs`, by snapshots built like this one.
     pub(crate) stages: Arc<OnceLock<Arc<crate::horizon::Stages>>>,
+    /// Every pair has exactly one outcome (every pair of a deterministic model): outcome `sa`
+    /// is pair `sa`'s, and [`Snapshot::outs`] needs no look-up.
+    single: bool,
 }
 
 /// One strongly connected component of the transition graph.
@@ -86,29 +89,49 @@ impl Snapshot {
             terminal,
             sa_start,
             sa_action,
-            out_start: Vec::with_capacity(like.map_or(1, |l| l.out_start.len())),
-            next: Vec::with_capacity(like.map_or(0, |l| l.next.len())),
+            out_start: Default::default(),
+            next: Default::default(),
             prob: Vec::with_capacity(like.map_or(0, |l| l.next.len())),
             cost: Vec::with_capacity(like.map_or(0, |l| l.next.len())),
             rbar: Vec::with_capacity(like.map_or(0, |l| l.rbar.len())),
             sccs: Arc::new(Vec::new()),
             stages: Default::default(),
+            single: false,
         };
-        snap.out_start.push(0);
-        // The running outcome counts a model appends per action are `out_start` itself.
-        mdp.all_outcomes(zeta, &mut snap.next, &mut snap.prob, &mut snap.cost, &mut snap.out_start);
-        assert_eq!(snap.out_start.len(), snap.sa_action.len() + 1, "one end per valid action");
+        // A model whose successors do not depend on ζ fills in only the new probabilities and
+        // costs: the successors and outcome counts are `like`'s.
+        let fixed = like.filter(|_| mdp.outcome_values(zeta, &mut snap.prob, &mut snap.cost));
+        if let Some(l) = fixed {
+            assert_eq!(snap.prob.len(), l.next.len(), "outcome_values: one probability per outcome");
+            assert_eq!(snap.cost.len(), l.next.len(), "outcome_values: one cost per outcome");
+            (snap.out_start, snap.next) = (Arc::clone(&l.out_start), Arc::clone(&l.next));
+            snap.single = l.single;
+        } else {
+            snap.prob.clear();
+            snap.cost.clear();
+            let (mut out_start, mut next) = (Vec::with_capacity(like.map_or(1, |l| l.out_start.len())), Vec::new());
+            next.reserve(like.map_or(0, |l| l.next.len()));
+            out_start.push(0);
+            // The running outcome counts a model appends per action are `out_start` itself.
+            mdp.all_outcomes(zeta, &mut next, &mut snap.prob, &mut snap.cost, &mut out_start);
+            assert_eq!(out_start.len(), snap.sa_action.len() + 1, "one end per valid action");
+            snap.single = out_start.iter().enumerate().fold(true, |one, (sa, &o)| one & (o == sa));
+            (snap.out_start, snap.next) = (Arc::new(out_start), Arc::new(next));
+        }
         let (prob, cost) = (&snap.prob, &snap.cost);
-        // A pair with one outcome (every pair of a deterministic model) sums that one term:
-        // the same `sum`, without the loop around it.
-        snap.rbar.extend(snap.out_start.windows(2).map(|w| match w[1] - w[0] {
-            1 => std::iter::once(prob[w[0]] * cost[w[0]]).sum::<f64>(),
-            _ => (w[0]..w[1]).map(|o| prob[o] * cost[o]).sum::<f64>(),
-        }));
+        // A pair with one outcome sums that one term: the same `sum`, without the loop around it.
+        if snap.single {
+            snap.rbar.extend(prob.iter().zip(cost).map(|(p, c)| std::iter::once(p * c).sum::<f64>()));
+        } else {
+            snap.rbar.extend(snap.out_start.windows(2).map(|w| match w[1] - w[0] {
+                1 => std::iter::once(prob[w[0]] * cost[w[0]]).sum::<f64>(),
+                _ => (w[0]..w[1]).map(|o| prob[o] * cost[o]).sum::<f64>(),
+            }));
+        }
         let same_support = |l: &Snapshot| {
-            l.out_start == snap.out_start
-                && l.next == snap.next
-                && l.prob.iter().zip(&snap.prob).all(|(a, b)| (*a > 0.0) == (*b > 0.0))
+            (Arc::ptr_eq(&l.next, &snap.next) || (l.out_start == snap.out_start && l.next == snap.next))
+                // Without the early exit of `all`, this loop vectorizes.
+                && l.prob.iter().zip(&snap.prob).fold(true, |same, (a, b)| same & ((*a > 0.0) == (*b > 0.0)))
         };
         match like {
             Some(l) if same_support(l) => {
@@ -129,7 +152,7 @@ impl Snapshot {
     /// The outcome indices of pair `sa`.
     #[inline]
     pub fn outs(&self, sa: usize) -> std::ops::Range<usize> {
-        self.out_start[sa]..self.out_start[sa + 1]
+        if self.single { sa..sa + 1 } else { self.out_start[sa]..self.out_start[sa + 1] }
     }
 
     /// `Σ_o p_o V(next_o)` for pair `sa`.
@@ -235,4 +258,34 @@ fn tarjan(snap: &Snapshot) -> Vec<Scc> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Built like a snapshot of another design, a snapshot holds a fresh build's tables bit for
+    /// bit; where the model fills in values only (the UAV network at κ = 1) it shares the
+    /// other's successors instead of expanding them again.
+    #[test]
+    fn a_snapshot_built_like_another_holds_a_fresh_builds_bits() {
+        for (kappa, shared) in [(1.0, true), (0.85, false)] {
+            let env = envpg_envs::registry().load("uav271", &[("kappa".into(), kappa)]).unwrap();
+            let model = env.model().unwrap();
+            let zeta = model.heuristic_design().unwrap();
+            let other: Vec<f64> = zeta.iter().map(|z| z + 0.3).collect();
+            let like = Snapshot::build(model, &other);
+            let (a, b) = (Snapshot::build_like(model, &zeta, Some(&like)), Snapshot::build(model, &zeta));
+            let bits = |x: &[f64]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!((&a.next, &a.out_start), (&b.next, &b.out_start), "kappa {kappa}");
+            assert_eq!(bits(&a.prob), bits(&b.prob), "kappa {kappa}");
+            assert_eq!(bits(&a.cost), bits(&b.cost), "kappa {kappa}");
+            assert_eq!(bits(&a.rbar), bits(&b.rbar), "kappa {kappa}");
+            assert_eq!(a.single, b.single);
+            assert_eq!(a.single, kappa == 1.0, "one outcome per pair exactly at kappa 1");
+            assert_eq!(Arc::ptr_eq(&a.next, &like.next), shared, "kappa {kappa}");
+            // Far apart at κ < 1, some deviations' probabilities underflow: the support differs.
+            assert!(!shared || Arc::ptr_eq(&a.sccs, &like.sccs), "kappa {kappa}: same components");
+        }
+    }
 }
