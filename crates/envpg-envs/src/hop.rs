@@ -327,20 +327,26 @@ impl HopNetwork {
             if c == 0.0 {
                 continue;
             }
-            // One look at where `t` sits gives both its position and its coordinates in ζ.
+            // One look at where `t` sits gives both its position and its coordinates in ζ. A
+            // point's two coordinates as one two-wide slice: one bounds check, not two.
             let (xt, it) = match self.places[t] {
                 Place::Fixed(p) => (p, None),
-                Place::Zeta(i) => ([zeta[i], zeta[i + 1]], Some(i)),
+                Place::Zeta(i) => {
+                    let z = &zeta[i..i + 2];
+                    ([z[0], z[1]], Some(i))
+                }
             };
             let gx = 2.0 * c * (xt[0] - xs[0]);
             let gy = 2.0 * c * (xt[1] - xs[1]);
             if let Some(i) = it {
-                grad[i] += gx;
-                grad[i + 1] += gy;
+                let g = &mut grad[i..i + 2];
+                g[0] += gx;
+                g[1] += gy;
             }
             if let Some(i) = is {
-                grad[i] -= gx;
-                grad[i + 1] -= gy;
+                let g = &mut grad[i..i + 2];
+                g[0] -= gx;
+                g[1] -= gy;
             }
         }
     }

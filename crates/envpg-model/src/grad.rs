@@ -28,17 +28,19 @@ pub fn accumulate_local<M: ModelMdp + ?Sized>(
     u: &[f64],
     grad: &mut [f64],
 ) {
-    accumulate_with(mdp, zeta, snap, grad, |_, sa, o| (w[sa], u[o]));
+    accumulate_with(mdp, zeta, snap, grad, |_| |sa, o| (w[sa], u[o]));
 }
 
-/// [`accumulate_local`] with `(W_sa, U_o)` supplied per outcome by `coef(s, sa, o)`, using one
-/// state-sized scratch instead of whole-model coefficient arrays.
-fn accumulate_with<M: ModelMdp + ?Sized>(
+/// [`accumulate_local`] with `(W_sa, U_o)` supplied per outcome by `coef(s)(sa, o)`, using one
+/// state-sized scratch instead of whole-model coefficient arrays. `coef(s)` reads what it needs
+/// of state `s` once: read per outcome, the stores into the scratch kept the compiler from
+/// hoisting those loads out of the loop.
+fn accumulate_with<M: ModelMdp + ?Sized, C: Fn(usize, usize) -> (f64, f64)>(
     mdp: &M,
     zeta: &[f64],
     snap: &Snapshot,
     grad: &mut [f64],
-    coef: impl Fn(usize, usize, usize) -> (f64, f64),
+    coef: impl Fn(usize) -> C,
 ) {
     // Sized once for the largest state and written by index: pushes kept the loop's values
     // on the stack around their capacity checks (a profile's hottest lines).
@@ -55,14 +57,14 @@ fn accumulate_with<M: ModelMdp + ?Sized>(
         let (lo, hi) = (snap.out_start[pairs.start], snap.out_start[pairs.end]);
         let (cp, cc) = (&mut cp[..hi - lo], &mut cc[..hi - lo]);
         let mut any = false;
+        let coef = coef(s);
         for sa in pairs {
             for o in snap.outs(sa) {
-                let (w, u) = coef(s, sa, o);
+                let (w, u) = coef(sa, o);
                 let (p, c) = (w * cost[o] + gamma * u, w * prob[o]);
                 cp[o - lo] = p;
                 cc[o - lo] = c;
-                // Without the short circuit: no branch per outcome.
-                any |= (p != 0.0) | (c != 0.0);
+                any |= p != 0.0 || c != 0.0;
             }
         }
         if any {
@@ -93,9 +95,12 @@ fn policy_fixed_gradient<M: ModelMdp + ?Sized>(
     rho: &[f64],
 ) -> Vec<f64> {
     let mut grad = vec![0.0; zeta.len()];
-    accumulate_with(mdp, zeta, snap, &mut grad, |s, sa, o| {
-        let w = rho[s] * pi[sa];
-        (w, w * v[snap.next[o]])
+    accumulate_with(mdp, zeta, snap, &mut grad, |s| {
+        let rho_s = rho[s];
+        move |sa, o| {
+            let w = rho_s * pi[sa];
+            (w, w * v[snap.next[o]])
+        }
     });
     grad
 }
@@ -188,15 +193,19 @@ pub fn horizon_gradient<M: ModelMdp + ?Sized>(
     }
     let mut grad = vec![0.0; zeta.len()];
     let (pi0, v1) = (sol.pi.first().map_or(&[][..], |p| &p[..]), sol.v.get(1).map_or(&[][..], |v| &v[..]));
-    accumulate_with(mdp, zeta, snap, &mut grad, |s, sa, o| match first_only[s] {
-        NOT_FIRST_ONLY => {
-            let first = sa_start[s];
-            (w[slot[s].0 + sa - first], u[slot[s].1 + o - out_start[first]])
-        }
-        // What the tables would hold: one addition to zero each, or nothing when W = 0.
-        at => {
-            let wh = mu[s] * pi0[at + sa - sa_start[s]];
-            if wh == 0.0 { (0.0, 0.0) } else { (0.0 + wh, 0.0 + wh * v1[next[o]]) }
+    let (w, u) = (&w[..], &u[..]);
+    accumulate_with(mdp, zeta, snap, &mut grad, |s| {
+        let (first, at, mu_s) = (sa_start[s], first_only[s], mu[s]);
+        // Offsets from a pair and an outcome of `s` to their entries in the tables (or in π₀).
+        let (ws, us) = (slot[s].0.wrapping_sub(first), slot[s].1.wrapping_sub(out_start[first]));
+        let pi0s = at.wrapping_sub(first);
+        move |sa, o| match at {
+            NOT_FIRST_ONLY => (w[ws.wrapping_add(sa)], u[us.wrapping_add(o)]),
+            // What the tables would hold: one addition to zero each, or nothing when W = 0.
+            _ => {
+                let wh = mu_s * pi0[pi0s.wrapping_add(sa)];
+                if wh == 0.0 { (0.0, 0.0) } else { (0.0 + wh, 0.0 + wh * v1[next[o]]) }
+            }
         }
     });
     Ok(grad)
