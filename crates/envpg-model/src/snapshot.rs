@@ -109,8 +109,8 @@ impl Snapshot {
         } else {
             snap.prob.clear();
             snap.cost.clear();
-            let (mut out_start, mut next) = (Vec::with_capacity(like.map_or(1, |l| l.out_start.len())), Vec::new());
-            next.reserve(like.map_or(0, |l| l.next.len()));
+            let mut out_start = Vec::with_capacity(like.map_or(1, |l| l.out_start.len()));
+            let mut next = Vec::with_capacity(like.map_or(0, |l| l.next.len()));
             out_start.push(0);
             // The running outcome counts a model appends per action are `out_start` itself.
             mdp.all_outcomes(zeta, &mut next, &mut snap.prob, &mut snap.cost, &mut out_start);
