@@ -27,7 +27,8 @@ use rand::Rng;
 use serde_json::json;
 
 use crate::run_dir::RunFile;
-use crate::{InputError, LaunchArgs, Pass, train_pass};
+use crate::train::{Pass, train_pass};
+use crate::{InputError, LaunchArgs};
 
 /// Where the passes after the first start (`--pass-start`). Measured (docs/uav-results.md,
 /// "Thousands of users"): `warm` ahead of `best` at 2,000 and 10,000 users, of `fresh` at
