@@ -79,7 +79,7 @@ pub struct OracleArgs {
     /// kicks cycle through 1×, 2× and 4× this.
     #[arg(long, default_value_t = 0.01)]
     kick_scale: f64,
-    /// Threads for restarts [default: available cores].
+    /// Threads for restarts, at least 1 [default: available cores].
     #[arg(long)]
     threads: Option<usize>,
     /// Write the result file (envpg.result.v2) here.
@@ -150,7 +150,7 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
     cfg.kicks = a.kicks;
     cfg.kick_scale = a.kick_scale;
     if let Some(t) = a.threads {
-        cfg.threads = t.max(1);
+        cfg.threads = t;
     }
     if let Some(init) = &a.init {
         cfg.init = Some(parse_init(init, &env)?);

@@ -84,6 +84,7 @@ fn bad_input_is_refused_with_exit_code_2() {
         (vec!["oracle", "--cooling", "1.2"], "cooling"),
         (vec!["oracle", "--kick-scale", "0"], "kick_scale must be finite and > 0"),
         (vec!["oracle", "--tracking-tol=-1"], "tracking_tol must be finite and >= 0"),
+        (vec!["oracle", "--threads", "0"], "threads must be at least 1"),
         (vec!["oracle", "--no-such-option"], "unexpected argument"),
         (vec!["evaluate", "/nonexistent/r.json"], "cannot read result file"),
     ];

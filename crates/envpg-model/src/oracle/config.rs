@@ -157,6 +157,9 @@ impl OracleConfig {
         if !(self.tracking_tol.is_finite() && self.tracking_tol >= 0.0) {
             return bad(format!("tracking_tol must be finite and >= 0, got {}", self.tracking_tol));
         }
+        if self.threads == 0 {
+            return bad("threads must be at least 1".into());
+        }
         if !(self.kick_scale.is_finite() && self.kick_scale > 0.0) {
             return bad(format!("kick_scale must be finite and > 0, got {}", self.kick_scale));
         }
