@@ -3,7 +3,8 @@
 use anyhow::{Context, Result};
 use clap::Args;
 use envpg_model::GradientKind;
-use envpg_model::oracle::{OracleConfig, Strategy, run_oracle};
+use envpg_model::oracle::{Finished, OracleConfig, Strategy, run_oracle_with};
+use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::args::{InstanceArgs, Tools, input_err, parse_init, positive};
 
@@ -85,6 +86,9 @@ pub struct OracleArgs {
     /// Write the result file (envpg.result.v2) here.
     #[arg(long)]
     out: Option<std::path::PathBuf>,
+    /// No progress bar (it is shown on stderr only when that is a terminal).
+    #[arg(long)]
+    quiet: bool,
 }
 
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
@@ -161,7 +165,17 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
     if let Some(path) = &a.out {
         crate::args::check_writable(path)?;
     }
-    let out = run_oracle(net, &cfg).context("oracle failed")?;
+    let bar = progress_bar(cfg.restarts, a.quiet);
+    let best = std::sync::Mutex::new(f64::INFINITY);
+    let out = run_oracle_with(net, &cfg, &|f: Finished<'_>| {
+        let mut best = best.lock().unwrap_or_else(|e| e.into_inner());
+        *best = best.min(f.restart.j);
+        bar.set_length(f.total as u64);
+        bar.set_message(format!("best J {:.6}", *best));
+        bar.inc(1);
+    });
+    bar.finish_and_clear();
+    let out = out.context("oracle failed")?;
     let best = &out.restarts[out.best];
     println!(
         "oracle  instance={} env={} {} restarts={} kicks={} seed={}",
@@ -194,6 +208,22 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
         println!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// Restarts and kicks done of all (the kicks count as restarts), on stderr (hidden with --quiet or when stderr is not a
+/// terminal).
+fn progress_bar(restarts: usize, quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    // The kicks are added to the total once the first restart says how many the run has.
+    let bar = ProgressBar::new(restarts as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} restarts, {elapsed}  {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(500));
+    bar
 }
 
 /// Formats a vector compactly.

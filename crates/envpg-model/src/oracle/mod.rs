@@ -62,6 +62,25 @@ pub fn deterministic_at<M: ModelMdp + ?Sized>(model: &M, zeta: &[f64]) -> bool {
 
 /// Runs the oracle on `model`.
 pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result<OracleOutcome, ModelError> {
+    run_oracle_with(model, cfg, &|_| {})
+}
+
+/// A restart (or kick) that has just ended, as [`run_oracle_with`] reports it.
+#[derive(Debug, Clone, Copy)]
+pub struct Finished<'a> {
+    /// The restart, `from` set for a kick.
+    pub restart: &'a Restart,
+    /// Restarts and kicks the run has in all.
+    pub total: usize,
+}
+
+/// [`run_oracle`], calling `finished` with each restart and kick as it ends — in the order they
+/// end, from the threads that ran them — for progress displays. The result does not depend on it.
+pub fn run_oracle_with<M: ModelMdp + ?Sized>(
+    model: &M,
+    cfg: &OracleConfig,
+    finished: &(dyn Fn(Finished<'_>) + Sync),
+) -> Result<OracleOutcome, ModelError> {
     cfg.validate(model)?;
     let start = Instant::now();
     let streams = Streams::new(cfg.seed);
@@ -82,11 +101,12 @@ pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result
             checked(r, clustered.unwrap_or_else(|| zeta0(r)))
         }))
         .collect::<Result<_, _>>()?;
-    let mut restarts = run_restarts(model, cfg, 0, &zeta0s, &streams, deterministic)?;
+    let kicks = cfg.kick_count(deterministic);
+    let batch = Batch { model, cfg, streams: &streams, deterministic, finished, total: cfg.restarts + kicks };
+    let mut restarts = batch.run(0, &zeta0s, None)?;
     // Kicks: rounds of warm restarts from the best design so far, each moved by noise of one
     // of three scales (a design a little off the best one often descends into a better basin
     // nearby; on large UAV instances the independent restarts rarely reach it).
-    let kicks = cfg.kick_count(deterministic);
     let length = cfg_length(model);
     let space = model.zeta_space();
     for k0 in (0..kicks).step_by(KICKS_PER_ROUND) {
@@ -101,10 +121,7 @@ pub fn run_oracle<M: ModelMdp + ?Sized>(model: &M, cfg: &OracleConfig) -> Result
                 z
             })
             .collect();
-        for mut r in run_restarts(model, cfg, cfg.restarts + k0, &round, &streams, deterministic)? {
-            r.from = Some(from);
-            restarts.push(r);
-        }
+        restarts.extend(batch.run(cfg.restarts + k0, &round, Some(from))?);
     }
     let best = best_of(&restarts, cfg.restarts);
     let jbest = restarts[best].j;
@@ -147,36 +164,47 @@ fn best_of(restarts: &[Restart], independent: usize) -> usize {
     best
 }
 
-/// Runs restarts `first`, `first + 1`, … from `zeta0s` on up to `cfg.threads` threads.
-/// Restarts cost from a fraction to several times one another (a slow anneal, then warm starts
-/// and faster anneals), so each thread takes the next restart not yet started rather than a
-/// fixed share. A restart depends only on its index, so results do not depend on which thread
-/// ran it.
-fn run_restarts<M: ModelMdp + ?Sized>(
-    model: &M,
-    cfg: &OracleConfig,
-    first: usize,
-    zeta0s: &[Vec<f64>],
-    streams: &Streams,
+/// What every restart of one oracle run shares.
+struct Batch<'a, M: ?Sized> {
+    model: &'a M,
+    cfg: &'a OracleConfig,
+    streams: &'a Streams,
     deterministic: bool,
-) -> Result<Vec<Restart>, ModelError> {
-    let n = zeta0s.len();
-    let next = AtomicUsize::new(0);
-    let results: Vec<OnceLock<Result<Restart, ModelError>>> = (0..n).map(|_| OnceLock::new()).collect();
-    std::thread::scope(|scope| {
-        for _ in 0..cfg.threads.clamp(1, n.max(1)) {
-            scope.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    if i >= n {
-                        break;
+    finished: &'a (dyn Fn(Finished<'_>) + Sync),
+    total: usize,
+}
+
+impl<M: ModelMdp + ?Sized> Batch<'_, M> {
+    /// Runs restarts `first`, `first + 1`, … from `zeta0s` (kicks of restart `from`) on up to
+    /// `cfg.threads` threads. Restarts cost from a fraction to several times one another (a
+    /// slow anneal, then warm starts and faster anneals), so each thread takes the next restart
+    /// not yet started rather than a fixed share. A restart depends only on its index, so
+    /// results do not depend on which thread ran it.
+    fn run(&self, first: usize, zeta0s: &[Vec<f64>], from: Option<usize>) -> Result<Vec<Restart>, ModelError> {
+        let n = zeta0s.len();
+        let next = AtomicUsize::new(0);
+        let results: Vec<OnceLock<Result<Restart, ModelError>>> = (0..n).map(|_| OnceLock::new()).collect();
+        std::thread::scope(|scope| {
+            for _ in 0..self.cfg.threads.clamp(1, n.max(1)) {
+                scope.spawn(|| {
+                    loop {
+                        let i = next.fetch_add(1, Ordering::Relaxed);
+                        if i >= n {
+                            break;
+                        }
+                        let (model, cfg) = (self.model, self.cfg);
+                        let r = anneal(model, cfg, first + i, &zeta0s[i], self.streams, self.deterministic);
+                        let r = r.map(|r| Restart { from, ..r });
+                        if let Ok(restart) = &r {
+                            (self.finished)(Finished { restart, total: self.total });
+                        }
+                        let _ = results[i].set(r);
                     }
-                    let _ = results[i].set(anneal(model, cfg, first + i, &zeta0s[i], streams, deterministic));
-                }
-            });
-        }
-    });
-    results.into_iter().map(|r| r.into_inner().expect("every restart ran")).collect()
+                });
+            }
+        });
+        results.into_iter().map(|r| r.into_inner().expect("every restart ran")).collect()
+    }
 }
 
 /// What a level's line search needs to finish the gradient at a point it accepts.
@@ -414,6 +442,31 @@ mod tests {
         let out = run_oracle(model, &OracleConfig { restarts: 2, ..OracleConfig::for_env(model) }).unwrap();
         assert_eq!(out.restarts[1].kind, RestartKind::Warm);
         assert_eq!(out.restarts[1].zeta0, model.random_design(&mut restart_zeta0(1)));
+    }
+
+    /// Every restart and kick is reported once, as it ends, with the run's total and the
+    /// design and J the outcome holds for it (a kick with the restart it moved).
+    #[test]
+    fn a_run_reports_each_restart_and_kick_as_it_ends() {
+        let env = flpo();
+        let model = env.model().unwrap();
+        let cfg = OracleConfig { restarts: 3, kicks: Some(3), threads: 2, ..OracleConfig::for_env(model) };
+        let seen = std::sync::Mutex::new(Vec::new());
+        let out = run_oracle_with(model, &cfg, &|f| {
+            let r = f.restart;
+            seen.lock().unwrap().push((r.index, f.total, r.from, r.j.to_bits(), r.zeta.clone()));
+        })
+        .unwrap();
+        let mut seen = seen.into_inner().unwrap();
+        seen.sort_by_key(|s| s.0);
+        assert_eq!(seen.len(), 6, "three restarts and three kicks, each once");
+        for (s, r) in seen.iter().zip(&out.restarts) {
+            assert_eq!(s, &(r.index, 6, r.from, r.j.to_bits(), r.zeta.clone()));
+        }
+        assert!(out.restarts[3..].iter().all(|r| r.from.is_some()), "kicks say which restart they moved");
+        let quiet = run_oracle(model, &cfg).unwrap();
+        assert_eq!(quiet.best, out.best);
+        assert_eq!(quiet.restarts[out.best].j.to_bits(), out.restarts[out.best].j.to_bits());
     }
 
     #[test]
