@@ -28,6 +28,11 @@ use rand::RngExt;
 use crate::hop::dist2;
 use crate::uav::bbox;
 
+thread_local! {
+    /// Scratch of [`Aac::outcomes`]: the landing distribution, ∂z and its mean.
+    static SCRATCH: std::cell::RefCell<[Vec<f64>; 3]> = Default::default();
+}
+
 /// The bundled data set of the paper (`launch/instances/aac1800.json`).
 pub const AAC1800: &str = include_str!("../../../launch/instances/aac1800.json");
 
@@ -100,6 +105,61 @@ impl Aac {
         }
         for (k, pk) in p.iter_mut().enumerate() {
             *pk = if k == j { 1.0 - self.dev } else { self.dev * *pk / sum };
+        }
+    }
+
+    /// [`Aac::outcomes`] with the landing distribution, ∂z and its mean in `scratch`: allocated
+    /// on every call, they cost an oracle restart more than the arithmetic around them.
+    fn outcomes_with(
+        &self,
+        s: usize,
+        a: usize,
+        zeta: &[f64],
+        grad: bool,
+        out: &mut Outcomes,
+        scratch: &mut [Vec<f64>; 3],
+    ) {
+        let [p, dz, mean] = scratch;
+        out.clear();
+        let (d, k_n, x) = (zeta.len(), self.k, self.points[s]);
+        p.clear();
+        p.resize(k_n, 0.0);
+        self.landing(s, a, zeta, p);
+        for (k, &pk) in p.iter().enumerate() {
+            let yk = Self::centre(zeta, k);
+            out.push(self.landed_state(k), pk, dist2(x, yk), grad, d);
+            if grad {
+                let dc = out.last_dcost(d);
+                dc[2 * k] = 2.0 * (yk[0] - x[0]);
+                dc[2 * k + 1] = 2.0 * (yk[1] - x[1]);
+            }
+        }
+        if grad && self.deviates() {
+            // p_k = dev·q_k, q = softmax_{k≠j}(z), z_k = −u_k/T: ∂q_k = q_k (∂z_k − Σ_l q_l ∂z_l).
+            let yj = Self::centre(zeta, a);
+            dz.clear();
+            dz.resize(k_n * d, 0.0);
+            for k in (0..k_n).filter(|&k| k != a) {
+                let yk = Self::centre(zeta, k);
+                for c in 0..2 {
+                    let toward = 2.0 * self.w_cluster * (yj[c] - yk[c]) / self.temperature;
+                    dz[k * d + 2 * a + c] -= toward;
+                    dz[k * d + 2 * k + c] += toward - 2.0 * self.w_point * (yk[c] - x[c]) / self.temperature;
+                }
+            }
+            mean.clear();
+            mean.resize(d, 0.0);
+            for k in (0..k_n).filter(|&k| k != a) {
+                let q = p[k] / self.dev;
+                for i in 0..d {
+                    mean[i] += q * dz[k * d + i];
+                }
+            }
+            for k in (0..k_n).filter(|&k| k != a) {
+                for i in 0..d {
+                    out.dprob[k * d + i] = p[k] * (dz[k * d + i] - mean[i]);
+                }
+            }
         }
     }
 }
@@ -249,44 +309,39 @@ impl ModelMdp for Aac {
     /// One outcome per cluster, in cluster order (those whose probability underflows to 0
     /// stay, with zero derivative).
     fn outcomes(&self, s: usize, a: usize, zeta: &[f64], grad: bool, out: &mut Outcomes) {
-        out.clear();
-        let (d, k_n, x) = (zeta.len(), self.k, self.points[s]);
-        let mut p = vec![0.0; k_n];
-        self.landing(s, a, zeta, &mut p);
-        for (k, &pk) in p.iter().enumerate() {
-            let yk = Self::centre(zeta, k);
-            out.push(self.landed_state(k), pk, dist2(x, yk), grad, d);
-            if grad {
-                let dc = out.last_dcost(d);
-                dc[2 * k] = 2.0 * (yk[0] - x[0]);
-                dc[2 * k + 1] = 2.0 * (yk[1] - x[1]);
+        SCRATCH.with(|cell| self.outcomes_with(s, a, zeta, grad, out, &mut cell.borrow_mut()))
+    }
+
+    /// Every point's K actions, each with one outcome per cluster: the landed states, whatever
+    /// ζ, so the successors are written here and [`Aac::outcome_values`] fills in the rest.
+    fn all_outcomes(
+        &self,
+        zeta: &[f64],
+        next: &mut Vec<usize>,
+        prob: &mut Vec<f64>,
+        cost: &mut Vec<f64>,
+        ends: &mut Vec<usize>,
+    ) {
+        for _ in 0..self.points.len() * self.k {
+            next.extend((0..self.k).map(|k| self.landed_state(k)));
+            ends.push(next.len());
+        }
+        self.outcome_values(zeta, prob, cost);
+    }
+
+    /// The landing probabilities and costs of every point's actions, as [`Aac::outcomes`]
+    /// computes them, in one pass without its per-action buffers: the successors are the
+    /// landed states at every ζ.
+    fn outcome_values(&self, zeta: &[f64], prob: &mut Vec<f64>, cost: &mut Vec<f64>) -> bool {
+        let mut p = vec![0.0; self.k];
+        for (i, &x) in self.points.iter().enumerate() {
+            for a in 0..self.k {
+                self.landing(i, a, zeta, &mut p);
+                prob.extend_from_slice(&p);
+                cost.extend((0..self.k).map(|k| dist2(x, Self::centre(zeta, k))));
             }
         }
-        if grad && self.deviates() {
-            // p_k = dev·q_k, q = softmax_{k≠j}(z), z_k = −u_k/T: ∂q_k = q_k (∂z_k − Σ_l q_l ∂z_l).
-            let yj = Self::centre(zeta, a);
-            let mut dz = vec![0.0; k_n * d];
-            for k in (0..k_n).filter(|&k| k != a) {
-                let yk = Self::centre(zeta, k);
-                for c in 0..2 {
-                    let toward = 2.0 * self.w_cluster * (yj[c] - yk[c]) / self.temperature;
-                    dz[k * d + 2 * a + c] -= toward;
-                    dz[k * d + 2 * k + c] += toward - 2.0 * self.w_point * (yk[c] - x[c]) / self.temperature;
-                }
-            }
-            let mut mean = vec![0.0; d];
-            for k in (0..k_n).filter(|&k| k != a) {
-                let q = p[k] / self.dev;
-                for i in 0..d {
-                    mean[i] += q * dz[k * d + i];
-                }
-            }
-            for k in (0..k_n).filter(|&k| k != a) {
-                for i in 0..d {
-                    out.dprob[k * d + i] = p[k] * (dz[k * d + i] - mean[i]);
-                }
-            }
-        }
+        true
     }
 
     /// Costs of the order of the squared extent of the points; one stage (every episode is
