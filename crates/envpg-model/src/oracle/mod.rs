@@ -102,8 +102,8 @@ pub fn run_oracle_with<M: ModelMdp + ?Sized>(
         }))
         .collect::<Result<_, _>>()?;
     let kicks = cfg.kick_count(deterministic);
-    let batch = Batch { model, cfg, streams: &streams, deterministic, finished, total: cfg.restarts + kicks };
-    let mut restarts = batch.run(0, &zeta0s, None)?;
+    let runner = Runner { model, cfg, streams: &streams, deterministic, finished, total: cfg.restarts + kicks };
+    let mut restarts = runner.run(0, &zeta0s, None)?;
     // Kicks: rounds of warm restarts from the best design so far, each moved by noise of one
     // of three scales (a design a little off the best one often descends into a better basin
     // nearby; on large UAV instances the independent restarts rarely reach it).
@@ -121,7 +121,7 @@ pub fn run_oracle_with<M: ModelMdp + ?Sized>(
                 z
             })
             .collect();
-        restarts.extend(batch.run(cfg.restarts + k0, &round, Some(from))?);
+        restarts.extend(runner.run(cfg.restarts + k0, &round, Some(from))?);
     }
     let best = best_of(&restarts, cfg.restarts);
     let jbest = restarts[best].j;
@@ -164,8 +164,8 @@ fn best_of(restarts: &[Restart], independent: usize) -> usize {
     best
 }
 
-/// What every restart of one oracle run shares.
-struct Batch<'a, M: ?Sized> {
+/// Runs the restarts of one oracle run, with what they all share.
+struct Runner<'a, M: ?Sized> {
     model: &'a M,
     cfg: &'a OracleConfig,
     streams: &'a Streams,
@@ -174,7 +174,7 @@ struct Batch<'a, M: ?Sized> {
     total: usize,
 }
 
-impl<M: ModelMdp + ?Sized> Batch<'_, M> {
+impl<M: ModelMdp + ?Sized> Runner<'_, M> {
     /// Runs restarts `first`, `first + 1`, … from `zeta0s` (kicks of restart `from`) on up to
     /// `cfg.threads` threads. Restarts cost from a fraction to several times one another (a
     /// slow anneal, then warm starts and faster anneals), so each thread takes the next restart
