@@ -4,9 +4,10 @@ use anyhow::{Context, Result};
 use clap::Args;
 use envpg_model::GradientKind;
 use envpg_model::oracle::{Finished, OracleConfig, Strategy, run_oracle_with};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 
 use crate::args::{InstanceArgs, Tools, input_err, parse_init, positive};
+use crate::cmd_table::bar_with;
 
 /// Options of `envpg oracle`. Unset temperatures default to values scaled to the environment
 /// (hot start at 10× its cost scale; for the UAV network, its squared extent).
@@ -210,19 +211,14 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
     Ok(())
 }
 
-/// Restarts and kicks done of all (the kicks count as restarts), on stderr (hidden with --quiet or when stderr is not a
-/// terminal).
+/// Restarts and kicks done of all (the kicks count as restarts), on stderr (hidden with --quiet
+/// or when stderr is not a terminal).
 fn progress_bar(restarts: usize, quiet: bool) -> ProgressBar {
-    if quiet {
-        return ProgressBar::hidden();
-    }
     // The kicks are added to the total once the first restart says how many the run has.
-    let bar = ProgressBar::new(restarts as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:30} {pos}/{len} restarts, {elapsed}  {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar.enable_steady_tick(std::time::Duration::from_millis(500));
+    let bar = bar_with(restarts as u64, quiet, "{bar:30} {pos}/{len} restarts, {elapsed}  {msg}");
+    if !bar.is_hidden() {
+        bar.enable_steady_tick(std::time::Duration::from_millis(500));
+    }
     bar
 }
 

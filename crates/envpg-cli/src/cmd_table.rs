@@ -119,13 +119,15 @@ pub fn log_line(bar: &ProgressBar, line: String) {
 
 /// A progress bar over jobs (hidden with --quiet or when stderr is not a terminal).
 pub fn bar(total: u64, quiet: bool) -> ProgressBar {
+    bar_with(total, quiet, "{bar:40} {pos}/{len} runs, {elapsed} elapsed, ~{eta} left")
+}
+
+/// [`bar`] drawn with an indicatif `template`.
+pub fn bar_with(total: u64, quiet: bool, template: &str) -> ProgressBar {
     if quiet {
         return ProgressBar::hidden();
     }
     let b = ProgressBar::new(total);
-    b.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} elapsed, ~{eta} left")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    b.set_style(ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()));
     b
 }

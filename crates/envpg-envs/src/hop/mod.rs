@@ -205,8 +205,7 @@ impl HopNetwork {
         cost: &mut Vec<f64>,
         ends: &mut Vec<usize>,
     ) {
-        let deviates = self.deviates(s);
-        if !deviates {
+        if !self.deviates(s) {
             // Every hop reaches its target: no off-target kernel, so no geometry scratch.
             // Whole-slice extends: one capacity check per state, not per outcome.
             let xs = self.position(s, zeta);
@@ -221,15 +220,13 @@ impl HopNetwork {
         with_geometry(self, s, zeta, |g| {
             for k in 0..g.len {
                 next.push(g.target[k]);
-                prob.push(if deviates { self.kappa } else { 1.0 });
+                prob.push(self.kappa);
                 cost.push(g.d2[k]);
-                if deviates {
-                    g.off_target(k);
-                    for l in (0..g.len).filter(|&l| l != k) {
-                        next.push(g.target[l]);
-                        prob.push((1.0 - self.kappa) * g.q[l]);
-                        cost.push(g.d2[l]);
-                    }
+                g.off_target(k);
+                for l in (0..g.len).filter(|&l| l != k) {
+                    next.push(g.target[l]);
+                    prob.push((1.0 - self.kappa) * g.q[l]);
+                    cost.push(g.d2[l]);
                 }
                 ends.push(next.len());
             }
