@@ -32,12 +32,18 @@ impl Adam {
     /// One descent step `θ ← θ − lr·m̂/(√v̂ + ε)` given the gradient `g` of the loss.
     ///
     /// Moments are kept in f64 whatever `T` is; the loop is plain arithmetic so it vectorises
-    /// (with AVX2 where the CPU has it: every operation is correctly rounded, so the result is
+    /// (with AVX-512 or AVX2 where the CPU has it: every operation is correctly rounded, so the result is
     /// the same bits either way).
     pub fn step<T: Scalar>(&mut self, params: &mut [T], g: &[T]) {
         assert_eq!(params.len(), self.m.len(), "parameter count changed");
         assert_eq!(g.len(), self.m.len(), "gradient length mismatch");
         self.t += 1;
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the required CPU feature was just detected.
+            unsafe { self.step_avx512(params, g) };
+            return;
+        }
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the required CPU feature was just detected.
@@ -54,6 +60,16 @@ impl Adam {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn step_avx2<T: Scalar>(&mut self, params: &mut [T], g: &[T]) {
+        self.step_impl(params, g);
+    }
+
+    /// [`Adam::step_impl`] compiled for AVX-512.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2")]
+    unsafe fn step_avx512<T: Scalar>(&mut self, params: &mut [T], g: &[T]) {
         self.step_impl(params, g);
     }
 

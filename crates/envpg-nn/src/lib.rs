@@ -95,7 +95,8 @@ impl Scalar for f32 {
     }
     /// Uses [`activation::fast_exp`] so the loop vectorises (libm's `expf` is a call per element
     /// and was half of the forward pass); σ is accurate to 4e-6 relative. Inlined into the MLP's
-    /// passes, which are compiled 8 lanes wide with AVX2 and FMA where the CPU has them.
+    /// passes, which are compiled 16 lanes wide with AVX-512, or 8 with AVX2 and FMA, where the
+    /// CPU has them.
     #[inline(always)]
     fn silu_inplace(z: &mut [Self], a: &mut [Self]) {
         activation::silu_f32(z, a);

@@ -128,6 +128,12 @@ impl<T: Scalar> Mlp<T> {
     /// of the batch. Deeper layers use a matrix product.
     pub fn forward(&self, x: &Inputs<'_, T>, cache: &mut Cache<T>, out: &mut [T]) {
         #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the required CPU feature was just detected.
+            unsafe { self.forward_avx512(x, cache, out) };
+            return;
+        }
+        #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
             // SAFETY: the required CPU features were just detected.
             unsafe { self.forward_avx2(x, cache, out) };
@@ -143,6 +149,17 @@ impl<T: Scalar> Mlp<T> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn forward_avx2(&self, x: &Inputs<'_, T>, cache: &mut Cache<T>, out: &mut [T]) {
+        self.forward_impl(x, cache, out);
+    }
+
+    /// [`Mlp::forward_impl`] compiled for AVX-512 (16 f32 a register: the same operations in
+    /// the same order per element, so the same bits).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2,fma")]
+    unsafe fn forward_avx512(&self, x: &Inputs<'_, T>, cache: &mut Cache<T>, out: &mut [T]) {
         self.forward_impl(x, cache, out);
     }
 
@@ -213,6 +230,12 @@ impl<T: Scalar> Mlp<T> {
     /// each column is computed start to finish in a small buffer, so nothing large is written.
     pub fn eval(&self, x: &Inputs<'_, T>, out: &mut [T]) {
         #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the required CPU feature was just detected.
+            unsafe { self.eval_avx512(x, out) };
+            return;
+        }
+        #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
             // SAFETY: the required CPU features were just detected.
             unsafe { self.eval_avx2(x, out) };
@@ -228,6 +251,16 @@ impl<T: Scalar> Mlp<T> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn eval_avx2(&self, x: &Inputs<'_, T>, out: &mut [T]) {
+        self.eval_impl(x, out);
+    }
+
+    /// [`Mlp::eval_impl`] compiled for AVX-512.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2,fma")]
+    unsafe fn eval_avx512(&self, x: &Inputs<'_, T>, out: &mut [T]) {
         self.eval_impl(x, out);
     }
 
@@ -306,6 +339,12 @@ impl<T: Scalar> Mlp<T> {
         dinput: Option<&mut [T]>,
     ) {
         #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the required CPU feature was just detected.
+            unsafe { self.backward_avx512(x, cache, dout, grad, dinput) };
+            return;
+        }
+        #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
             // SAFETY: the required CPU features were just detected.
             unsafe { self.backward_avx2(x, cache, dout, grad, dinput) };
@@ -321,6 +360,23 @@ impl<T: Scalar> Mlp<T> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn backward_avx2(
+        &self,
+        x: &Inputs<'_, T>,
+        cache: &Cache<T>,
+        dout: &[T],
+        grad: Option<&mut [T]>,
+        dinput: Option<&mut [T]>,
+    ) {
+        self.backward_impl(x, cache, dout, grad, dinput);
+    }
+
+    /// [`Mlp::backward_impl`] compiled for AVX-512.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2,fma")]
+    unsafe fn backward_avx512(
         &self,
         x: &Inputs<'_, T>,
         cache: &Cache<T>,
@@ -667,6 +723,69 @@ mod tests {
                     b.3[e].to_bits(),
                     "input gradient of sample {s}, input {i}"
                 );
+            }
+        }
+    }
+
+    /// The passes compiled for AVX-512 and for AVX2 give the bits of the plain build (each
+    /// element gets the same operations in the same order, only more lanes at a time), on the
+    /// column path (one hidden layer of 128, mostly-zero inputs) and the matrix-product path.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn every_instruction_set_gives_the_bits_of_the_plain_build() {
+        #[derive(Debug, Clone, Copy)]
+        enum Isa {
+            Plain,
+            Avx2,
+            Avx512,
+        }
+        /// Forward, eval and backward outputs of `m` built for `isa`, as bits.
+        fn run(m: &Mlp<f32>, x: &Inputs<'_, f32>, dout: &[f32], isa: Isa) -> [Vec<u32>; 4] {
+            let (bsz, dim) = (x.batch, m.spec.dense);
+            let (mut cache, mut out, mut evals) = (Cache::default(), vec![0.0; bsz], vec![0.0; bsz]);
+            let (mut g, mut di) = (vec![0.0; m.n_params()], vec![0.0; dim * bsz]);
+            // SAFETY: the caller runs each instruction set only where the CPU has it.
+            unsafe {
+                match isa {
+                    Isa::Plain => {
+                        m.forward_impl(x, &mut cache, &mut out);
+                        m.eval_impl(x, &mut evals);
+                        m.backward_impl(x, &cache, dout, Some(&mut g), Some(&mut di));
+                    }
+                    Isa::Avx2 => {
+                        m.forward_avx2(x, &mut cache, &mut out);
+                        m.eval_avx2(x, &mut evals);
+                        m.backward_avx2(x, &cache, dout, Some(&mut g), Some(&mut di));
+                    }
+                    Isa::Avx512 => {
+                        m.forward_avx512(x, &mut cache, &mut out);
+                        m.eval_avx512(x, &mut evals);
+                        m.backward_avx512(x, &cache, dout, Some(&mut g), Some(&mut di));
+                    }
+                }
+            }
+            [out, evals, g, di].map(|v| v.iter().map(|x| x.to_bits()).collect())
+        }
+        let mut isas = vec![];
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            isas.push(Isa::Avx2);
+        }
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            isas.push(Isa::Avx512);
+        }
+        eprintln!("checked against the plain build: {isas:?}");
+        for (hidden, nonzero) in [(vec![128], 3), (vec![6, 7], 12)] {
+            let (dim, bsz) = (12, 9);
+            let spec = MlpSpec { onehot: vec![5, 3], dense: dim, hidden };
+            let m = Mlp::<f32>::new(spec, &mut ChaCha12Rng::seed_from_u64(5), false);
+            let onehot: Vec<u32> = (0..bsz as u32).flat_map(|s| [s % 5, s % 3]).collect();
+            let dense: Vec<f32> =
+                (0..dim * bsz).map(|i| if i % dim < nonzero { ((i as f32) * 0.73).sin() * 3.0 } else { 0.0 }).collect();
+            let x = Inputs::full(&onehot, &dense, bsz);
+            let dout: Vec<f32> = (0..bsz).map(|s| 0.5 - s as f32).collect();
+            let plain = run(&m, &x, &dout, Isa::Plain);
+            for &isa in &isas {
+                assert_eq!(run(&m, &x, &dout, isa), plain, "{isa:?}, hidden {:?}", m.spec.hidden);
             }
         }
     }
