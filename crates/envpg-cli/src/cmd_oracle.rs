@@ -90,6 +90,10 @@ pub struct OracleArgs {
     /// No progress bar (it is shown on stderr only when that is a terminal).
     #[arg(long)]
     quiet: bool,
+    /// Instead of the bar, a line on stderr as each restart or kick ends (`envpg oracle: 3/22
+    /// ended, restart 5: J = …, best J = …`), for log files and programs that run the oracle.
+    #[arg(long, conflicts_with = "quiet")]
+    progress_lines: bool,
 }
 
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
@@ -166,13 +170,23 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
     if let Some(path) = &a.out {
         crate::args::check_writable(path)?;
     }
-    let bar = progress_bar(cfg.restarts, a.quiet);
-    let best = std::sync::Mutex::new(f64::INFINITY);
+    let bar = progress_bar(cfg.restarts, a.quiet || a.progress_lines);
+    // The best J so far and the number of restarts ended, updated together.
+    let seen = std::sync::Mutex::new((f64::INFINITY, 0usize));
     let out = run_oracle_with(net, &cfg, &|f: Finished<'_>| {
-        let mut best = best.lock().unwrap_or_else(|e| e.into_inner());
-        *best = best.min(f.restart.j);
+        let mut seen = seen.lock().unwrap_or_else(|e| e.into_inner());
+        seen.0 = seen.0.min(f.restart.j);
+        seen.1 += 1;
+        if a.progress_lines {
+            let r = f.restart;
+            let kick = r.from.map(|from| format!(" (kick from {from})")).unwrap_or_default();
+            eprintln!(
+                "envpg oracle: {}/{} ended, restart {}{kick}: J = {:.6}, best J = {:.6}, {:.2}s",
+                seen.1, f.total, r.index, r.j, seen.0, r.seconds
+            );
+        }
         bar.set_length(f.total as u64);
-        bar.set_message(format!("best J {:.6}", *best));
+        bar.set_message(format!("best J {:.6}", seen.0));
         bar.inc(1);
     });
     bar.finish_and_clear();

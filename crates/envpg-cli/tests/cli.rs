@@ -56,6 +56,28 @@ fn oracle_result_rescored_by_evaluate_matches() {
     assert!(stdout(&e).contains(" ok"), "{}", stdout(&e));
 }
 
+/// `--progress-lines` writes one line on stderr per restart and kick as it ends, each with the
+/// run's total, and the last with the best J the run reports; piped, the bar writes nothing.
+#[test]
+fn progress_lines_count_every_restart_and_kick_and_end_at_the_best_j() {
+    let dir = tempfile::tempdir().unwrap();
+    let inst = generate(dir.path(), 30, 3);
+    let o = envpg(&["oracle", "--instance", &inst, "--restarts", "2", "--progress-lines"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (out, err) = (stdout(&o), stderr(&o));
+    let runs = out.lines().filter(|l| l.trim_start().starts_with("restart ")).count();
+    let lines: Vec<&str> = err.lines().collect();
+    assert!(runs > 2, "κ = 1: the kicks follow the restarts\n{out}");
+    assert_eq!(lines.len(), runs, "{err}");
+    for (i, l) in lines.iter().enumerate() {
+        assert!(l.starts_with(&format!("envpg oracle: {}/{runs} ended, restart ", i + 1)), "{l}");
+    }
+    let best = out.lines().find_map(|l| l.strip_prefix("best J = ")).unwrap().split(' ').next().unwrap();
+    assert!(lines[runs - 1].contains(&format!("best J = {best},")), "{err}\n{out}");
+    let quiet = envpg(&["oracle", "--instance", &inst, "--restarts", "2"]);
+    assert!(quiet.status.success() && quiet.stderr.is_empty(), "{}", stderr(&quiet));
+}
+
 #[test]
 fn evaluate_detects_a_tampered_j() {
     let dir = tempfile::tempdir().unwrap();

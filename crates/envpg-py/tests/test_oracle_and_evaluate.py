@@ -54,3 +54,37 @@ def test_bad_oracle_settings_are_input_errors():
         envpg.oracle("flpo-n10m4", restarts=1, no_such_option=3)
     with pytest.raises(envpg.InputError):
         envpg.oracle("flpo-n10m4", restarts=0)
+
+
+def test_the_oracle_bar_counts_each_restart_and_kick_as_it_ends(monkeypatch):
+    """``progress=True`` feeds a bar from the oracle's progress lines: one step per restart and
+    kick, the run's total once known, the best J so far; the result is the one without a bar,
+    and a refused setting is still an InputError with the CLI's message."""
+    bars = []
+
+    class Bar:
+        def __init__(self, total, **_):
+            self.total, self.n, self.postfix, self.closed = total, 0, {}, False
+            bars.append(self)
+
+        def set_postfix(self, refresh=True, **kw):
+            self.postfix = kw
+
+        def update(self, n):
+            self.n += n
+
+        def close(self):
+            self.closed = True
+
+    monkeypatch.setattr(envpg._run, "_tqdm", lambda enabled: Bar if enabled is not False else None)
+    r = envpg.oracle("uav271", restarts=2, seed=3, progress=True)
+    plain = envpg.oracle("uav271", restarts=2, seed=3, progress=False)
+    assert len(bars) == 1, "progress=False draws no bar"
+    bar, runs = bars[0], r.raw["details"]["restarts"]
+    assert len(runs) > 2, "κ = 1: the portfolio's kicks follow the two restarts"
+    assert bar.n == bar.total == len(runs) and bar.closed
+    assert float(bar.postfix["best_J"]) == pytest.approx(r.J, abs=1e-6)
+    assert r.J == plain.J and r.raw["zeta"] == plain.raw["zeta"] and r.raw["policy"] == plain.raw["policy"]
+    with pytest.raises(envpg.InputError, match="threads must be at least 1"):
+        envpg.oracle("uav271", restarts=1, threads=0, progress=True)
+    assert bars[-1].closed

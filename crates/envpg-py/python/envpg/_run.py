@@ -8,13 +8,14 @@ import contextlib
 import json
 import math
 import os
+import re
 import secrets
 import signal
 import subprocess
 import sys
 import tempfile
 import threading
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -122,6 +123,19 @@ def _runs_dir() -> Path:
     return Path(base) if base else Path.cwd() / "runs"
 
 
+def _tqdm(enabled: bool | None) -> Any:
+    """tqdm's bar class when progress is wanted (``None``: if tqdm is installed), else ``None``."""
+    if enabled is False:
+        return None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        if enabled:
+            raise InputError("progress=True needs tqdm (pip install tqdm)") from None
+        return None
+    return tqdm
+
+
 class _Progress:
     """A tqdm bar fed from the run's ``metrics.csv`` (a row per completed iteration), if tqdm is
     installed and progress is wanted."""
@@ -130,13 +144,8 @@ class _Progress:
         self.run_dir = run_dir
         self.stop = threading.Event()
         self.thread = None
-        if enabled is False:
-            return
-        try:
-            from tqdm.auto import tqdm
-        except ImportError:
-            if enabled:
-                raise InputError("progress=True needs tqdm (pip install tqdm)") from None
+        tqdm = _tqdm(enabled)
+        if tqdm is None:
             return
         self.tqdm = tqdm
         self.thread = threading.Thread(target=self._run, daemon=True)
@@ -249,27 +258,50 @@ def oracle(
     restarts: int = 16,
     seed: int = 1,
     out: str | os.PathLike[str] | None = None,
+    progress: bool | None = None,
     **settings: Any,
 ) -> Result:
     """The model-based oracle: annealed co-design with exact gradients, best of ``restarts``
     — exactly ``envpg oracle``. ``settings`` are its options by keyword (``strategy="warm"``,
-    ``threads=1``, ``init=[...]``). Runs in a child process, so Ctrl-C stops it at once."""
+    ``threads=1``, ``init=[...]``). Runs in a child process, so Ctrl-C stops it at once; with
+    tqdm installed a bar counts the restarts and kicks as they end and shows the best J so far
+    (``progress=False``: none)."""
     _not_in_a_run_process("oracle")
+    tqdm = None if settings.get("quiet") else _tqdm(progress)
     with tempfile.TemporaryDirectory(prefix="envpg-oracle-") as d:
         target = Path(out) if out is not None else Path(d) / "oracle.json"
         with _instance_arg(instance) as spec:
             argv = ["oracle", "--instance", spec, "--restarts", str(restarts), "--seed", str(seed)]
             argv += ["--out", str(target), *_flags(settings)]
-            _tools(argv)
+            if tqdm is None:
+                _tools(argv)
+            else:
+                bar = tqdm(total=restarts, desc="envpg oracle", unit="restart")
+                try:
+                    _tools([*argv, "--progress-lines"], on_progress=lambda total, best: _advance(bar, total, best))
+                finally:
+                    bar.close()
         result = load_result(target)
         if out is None:
             result.path = None
         return result
 
 
-def _tools(argv: list[str]) -> str:
+def _advance(bar: Any, total: int, best: float) -> None:
+    """One more restart or kick of ``total`` has ended; the best J so far is ``best``."""
+    bar.total = total
+    bar.set_postfix(best_J=f"{best:.6f}", refresh=False)
+    bar.update(1)
+
+
+#: A line ``envpg oracle --progress-lines`` writes as a restart or kick ends.
+_ORACLE_LINE = re.compile(r"^envpg oracle: \d+/(\d+) ended, .*best J = (\S+),")
+
+
+def _tools(argv: list[str], on_progress: Callable[[int, float], None] | None = None) -> str:
     """Runs ``envpg ARGV`` as ``python -m envpg._tools``; returns its stdout, raises on failure
-    with its error message."""
+    with its error message. With ``on_progress``, each progress line the oracle writes on
+    stderr is passed on as (restarts and kicks in all, best J so far) instead."""
     env = dict(os.environ, PYTHONPATH=python_path())
     proc = subprocess.Popen(
         [sys.executable, "-m", "envpg._tools", *argv],
@@ -279,7 +311,10 @@ def _tools(argv: list[str]) -> str:
         env=env,
     )
     try:
-        stdout, stderr = proc.communicate()
+        if on_progress is None:
+            stdout, stderr = proc.communicate()
+        else:
+            stdout, stderr = _follow(proc, on_progress)
     except BaseException:
         proc.terminate()
         try:
@@ -298,6 +333,25 @@ def _tools(argv: list[str]) -> str:
     if proc.returncode == 4:
         raise EnvError(message)
     raise RunError(message)
+
+
+def _follow(proc: subprocess.Popen[str], on_progress: Callable[[int, float], None]) -> tuple[str, str]:
+    """Reads ``proc``'s stderr line by line as it comes, passing progress lines to
+    ``on_progress`` and keeping the rest; stdout is read beside it so neither pipe fills."""
+    assert proc.stdout is not None and proc.stderr is not None
+    chunks: list[str] = []
+    reader = threading.Thread(target=lambda: chunks.append(proc.stdout.read()), daemon=True)
+    reader.start()
+    kept = []
+    for line in proc.stderr:
+        m = _ORACLE_LINE.match(line)
+        if m:
+            on_progress(int(m.group(1)), float(m.group(2)))
+        else:
+            kept.append(line)
+    reader.join()
+    proc.wait()
+    return "".join(chunks), "".join(kept)
 
 
 def evaluate(result: Result | str | os.PathLike[str]) -> float | None:
