@@ -1,7 +1,7 @@
 #!/bin/bash
 # The oracle's default (16 restarts, the `auto` portfolio at κ = 1, then 6 kicks) on generated UAV
 # instances larger than the bundled one: 2,000 users / 10 UAVs (instance seeds 1–8) and 10,000
-# users / 20 UAVs (seeds 1–4), oracle seed 1. Restart 0 of each run is the single-rate anneal. Every
+# users / 20 UAVs (seeds 1–6), oracle seed 1. Restart 0 of each run is the single-rate anneal. Every
 # instance is also run with other oracle seeds (2–4 at 2,000 users, 2 at 10,000), to know the
 # best design this search finds at all.
 # Designs found outside this search count towards the best known: warm-*-NAME.json (one warm
@@ -19,7 +19,7 @@ rm -f "$out"/best-known-*.json # a design another seed beat is written again if 
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 for spec in "2000 10 1" "2000 10 2" "2000 10 3" "2000 10 4" "2000 10 5" "2000 10 6" "2000 10 7" "2000 10 8" \
-    "10000 20 1" "10000 20 2" "10000 20 3" "10000 20 4"; do
+    "10000 20 1" "10000 20 2" "10000 20 3" "10000 20 4" "10000 20 5" "10000 20 6"; do
     read -r users uavs seed <<<"$spec"
     name="u${users}-m${uavs}-s${seed}"
     $envpg instance generate --users "$users" --uavs "$uavs" --clusters "$uavs" --seed "$seed" \
