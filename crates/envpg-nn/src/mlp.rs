@@ -51,6 +51,49 @@ pub struct Mlp<T> {
     params: Vec<T>,
 }
 
+/// A pass `pub fn $name` that runs `$imp` (an `#[inline(always)]` method) compiled for the widest
+/// vector instructions the CPU has: AVX-512 (`$avx512`), else AVX2 and FMA (`$avx2`), else the
+/// plain build. Each element gets the same operations in the same order whatever the width (no
+/// fused multiply–add is written, and the compiler forms none), so every build gives the same bits.
+macro_rules! widest_isa {
+    ($(#[$doc:meta])* pub fn $name:ident / $avx2:ident / $avx512:ident / $imp:ident($($arg:ident: $ty:ty),* $(,)?)) => {
+        $(#[$doc])*
+        pub fn $name(&self, $($arg: $ty),*) {
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the required CPU feature was just detected.
+                return unsafe { self.$avx512($($arg),*) };
+            }
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+                // SAFETY: the required CPU features were just detected.
+                return unsafe { self.$avx2($($arg),*) };
+            }
+            self.$imp($($arg),*)
+        }
+
+        /// The pass compiled for AVX2 and FMA (the helpers are inlined into it).
+        ///
+        /// # Safety
+        /// The CPU must support AVX2 and FMA.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,fma")]
+        unsafe fn $avx2(&self, $($arg: $ty),*) {
+            self.$imp($($arg),*)
+        }
+
+        /// The pass compiled for AVX-512 (16 f32 a register).
+        ///
+        /// # Safety
+        /// The CPU must support AVX-512F.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx512f,avx2,fma")]
+        unsafe fn $avx512(&self, $($arg: $ty),*) {
+            self.$imp($($arg),*)
+        }
+    };
+}
+
 impl<T: Scalar> Mlp<T> {
     /// A network of shape `spec` with PyTorch-style uniform initialisation
     /// (±1/√fan_in, fan_in counting one active entry per one-hot group); with `zero_output`
@@ -121,46 +164,17 @@ impl<T: Scalar> Mlp<T> {
         x.check_dense(self.spec.dense);
     }
 
-    /// Forward pass: writes one output per sample into `out` and fills `cache`.
-    ///
-    /// The first layer (and, for one hidden layer, the whole network) runs column by column so
-    /// every intermediate stays in L1; its arithmetic for a sample never depends on the rest
-    /// of the batch. Deeper layers use a matrix product.
-    pub fn forward(&self, x: &Inputs<'_, T>, cache: &mut Cache<T>, out: &mut [T]) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the required CPU feature was just detected.
-            unsafe { self.forward_avx512(x, cache, out) };
-            return;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-            // SAFETY: the required CPU features were just detected.
-            unsafe { self.forward_avx2(x, cache, out) };
-            return;
-        }
-        self.forward_impl(x, cache, out);
-    }
-
-    /// [`Mlp::forward_impl`] compiled for AVX2 and FMA (the helpers are inlined into it).
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn forward_avx2(&self, x: &Inputs<'_, T>, cache: &mut Cache<T>, out: &mut [T]) {
-        self.forward_impl(x, cache, out);
-    }
-
-    /// [`Mlp::forward_impl`] compiled for AVX-512 (16 f32 a register: the same operations in
-    /// the same order per element, so the same bits).
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx2,fma")]
-    unsafe fn forward_avx512(&self, x: &Inputs<'_, T>, cache: &mut Cache<T>, out: &mut [T]) {
-        self.forward_impl(x, cache, out);
+    widest_isa! {
+        /// Forward pass: writes one output per sample into `out` and fills `cache`.
+        ///
+        /// The first layer (and, for one hidden layer, the whole network) runs column by column so
+        /// every intermediate stays in L1; its arithmetic for a sample never depends on the rest
+        /// of the batch. Deeper layers use a matrix product.
+        pub fn forward / forward_avx2 / forward_avx512 / forward_impl(
+            x: &Inputs<'_, T>,
+            cache: &mut Cache<T>,
+            out: &mut [T],
+        )
     }
 
     #[inline(always)]
@@ -226,42 +240,10 @@ impl<T: Scalar> Mlp<T> {
         }
     }
 
-    /// Outputs only, without keeping activations for a backward pass: with one hidden layer
-    /// each column is computed start to finish in a small buffer, so nothing large is written.
-    pub fn eval(&self, x: &Inputs<'_, T>, out: &mut [T]) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the required CPU feature was just detected.
-            unsafe { self.eval_avx512(x, out) };
-            return;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-            // SAFETY: the required CPU features were just detected.
-            unsafe { self.eval_avx2(x, out) };
-            return;
-        }
-        self.eval_impl(x, out);
-    }
-
-    /// [`Mlp::eval_impl`] compiled for AVX2 and FMA.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn eval_avx2(&self, x: &Inputs<'_, T>, out: &mut [T]) {
-        self.eval_impl(x, out);
-    }
-
-    /// [`Mlp::eval_impl`] compiled for AVX-512.
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx2,fma")]
-    unsafe fn eval_avx512(&self, x: &Inputs<'_, T>, out: &mut [T]) {
-        self.eval_impl(x, out);
+    widest_isa! {
+        /// Outputs only, without keeping activations for a backward pass: with one hidden layer
+        /// each column is computed start to finish in a small buffer, so nothing large is written.
+        pub fn eval / eval_avx2 / eval_avx512 / eval_impl(x: &Inputs<'_, T>, out: &mut [T])
     }
 
     #[inline(always)]
@@ -326,65 +308,18 @@ impl<T: Scalar> Mlp<T> {
         gemm(T::one(), w, Op::N, Mat::new(input, lay.cols, bsz), Op::N, T::one(), out, lay.rows, bsz);
     }
 
-    /// Backward pass for the upstream gradient `dout` (one per sample): adds the parameter
-    /// gradient into `grad` (if given, flat, same layout as the parameters) and writes the
-    /// gradient with respect to the dense inputs into `dinput` (if given: `dense × batch`, or
-    /// for [`Dense::Listed`] inputs one entry per listed input, in their order).
-    pub fn backward(
-        &self,
-        x: &Inputs<'_, T>,
-        cache: &Cache<T>,
-        dout: &[T],
-        grad: Option<&mut [T]>,
-        dinput: Option<&mut [T]>,
-    ) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the required CPU feature was just detected.
-            unsafe { self.backward_avx512(x, cache, dout, grad, dinput) };
-            return;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-            // SAFETY: the required CPU features were just detected.
-            unsafe { self.backward_avx2(x, cache, dout, grad, dinput) };
-            return;
-        }
-        self.backward_impl(x, cache, dout, grad, dinput);
-    }
-
-    /// [`Mlp::backward_impl`] compiled for AVX2 and FMA.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn backward_avx2(
-        &self,
-        x: &Inputs<'_, T>,
-        cache: &Cache<T>,
-        dout: &[T],
-        grad: Option<&mut [T]>,
-        dinput: Option<&mut [T]>,
-    ) {
-        self.backward_impl(x, cache, dout, grad, dinput);
-    }
-
-    /// [`Mlp::backward_impl`] compiled for AVX-512.
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx2,fma")]
-    unsafe fn backward_avx512(
-        &self,
-        x: &Inputs<'_, T>,
-        cache: &Cache<T>,
-        dout: &[T],
-        grad: Option<&mut [T]>,
-        dinput: Option<&mut [T]>,
-    ) {
-        self.backward_impl(x, cache, dout, grad, dinput);
+    widest_isa! {
+        /// Backward pass for the upstream gradient `dout` (one per sample): adds the parameter
+        /// gradient into `grad` (if given, flat, same layout as the parameters) and writes the
+        /// gradient with respect to the dense inputs into `dinput` (if given: `dense × batch`, or
+        /// for [`Dense::Listed`] inputs one entry per listed input, in their order).
+        pub fn backward / backward_avx2 / backward_avx512 / backward_impl(
+            x: &Inputs<'_, T>,
+            cache: &Cache<T>,
+            dout: &[T],
+            grad: Option<&mut [T]>,
+            dinput: Option<&mut [T]>,
+        )
     }
 
     #[inline(always)]
