@@ -3,7 +3,7 @@
 use anyhow::{Context, Result};
 use clap::Args;
 use envpg_model::GradientKind;
-use envpg_model::oracle::{Finished, OracleConfig, Strategy, run_oracle_with};
+use envpg_model::oracle::{Finished, OracleConfig, RestartKind, Strategy, run_oracle_with};
 use indicatif::ProgressBar;
 
 use crate::args::{InstanceArgs, Tools, input_err, parse_init, positive};
@@ -81,6 +81,14 @@ pub struct OracleArgs {
     /// kicks cycle through 1×, 2× and 4× this.
     #[arg(long, default_value_t = 0.01)]
     kick_scale: f64,
+    /// Relocation kicks after the kicks: colder warm restarts from the best design so far with
+    /// one design element (a UAV, a facility) moved to serve a costly hop, two per round
+    /// [default: 4 with the portfolio on an environment with design elements, 0 otherwise].
+    #[arg(long)]
+    relocations: Option<usize>,
+    /// Starting temperature of relocation kicks [default: a tenth of --warm-alpha0].
+    #[arg(long)]
+    relocation_alpha0: Option<f64>,
     /// Threads for restarts, at least 1 [default: available cores].
     #[arg(long)]
     threads: Option<usize>,
@@ -90,7 +98,7 @@ pub struct OracleArgs {
     /// No progress bar (it is shown on stderr only when that is a terminal).
     #[arg(long)]
     quiet: bool,
-    /// Instead of the bar, a line on stderr as each restart or kick ends (`envpg oracle: 3/22
+    /// Instead of the bar, a line on stderr as each restart or kick ends (`envpg oracle: 3/26
     /// ended, restart 5: J = …, best J = …`), for log files and programs that run the oracle.
     #[arg(long, conflicts_with = "quiet")]
     progress_lines: bool,
@@ -158,6 +166,10 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
     }
     cfg.kicks = a.kicks;
     cfg.kick_scale = a.kick_scale;
+    cfg.relocations = a.relocations;
+    if let Some(x) = a.relocation_alpha0 {
+        cfg.relocation_alpha0 = Some(positive("--relocation-alpha0", x)?);
+    }
     if let Some(t) = a.threads {
         cfg.threads = t;
     }
@@ -179,7 +191,11 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
         seen.1 += 1;
         if a.progress_lines {
             let r = f.restart;
-            let kick = r.from.map(|from| format!(" (kick from {from})")).unwrap_or_default();
+            let kick = match (r.kind, r.from) {
+                (RestartKind::Relocation, Some(from)) => format!(" (relocation from {from})"),
+                (_, Some(from)) => format!(" (kick from {from})"),
+                (_, None) => String::new(),
+            };
             eprintln!(
                 "envpg oracle: {}/{} ended, restart {}{kick}: J = {:.6}, best J = {:.6}, {:.2}s",
                 seen.1, f.total, r.index, r.j, seen.0, r.seconds
@@ -193,12 +209,13 @@ pub fn run(a: OracleArgs, tools: &Tools) -> Result<()> {
     let out = out.context("oracle failed")?;
     let best = &out.restarts[out.best];
     println!(
-        "oracle  instance={} env={} {} restarts={} kicks={} seed={}",
+        "oracle  instance={} env={} {} restarts={} kicks={} relocations={} seed={}",
         env.title,
         env.name,
         env.params_text(),
         cfg.restarts,
-        out.restarts.len() - cfg.restarts,
+        out.restarts.iter().filter(|r| r.kind == RestartKind::Kick).count(),
+        out.restarts.iter().filter(|r| r.kind == RestartKind::Relocation).count(),
         cfg.seed
     );
     for r in &out.restarts {

@@ -68,6 +68,7 @@ fn progress_lines_count_every_restart_and_kick_and_end_at_the_best_j() {
     let runs = out.lines().filter(|l| l.trim_start().starts_with("restart ")).count();
     let lines: Vec<&str> = err.lines().collect();
     assert!(runs > 2, "κ = 1: the kicks follow the restarts\n{out}");
+    assert!(err.contains(" (kick from ") && err.contains(" (relocation from "), "then the relocations\n{err}");
     assert_eq!(lines.len(), runs, "{err}");
     for (i, l) in lines.iter().enumerate() {
         assert!(l.starts_with(&format!("envpg oracle: {}/{runs} ended, restart ", i + 1)), "{l}");
@@ -105,6 +106,7 @@ fn bad_input_is_refused_with_exit_code_2() {
         (vec!["oracle", "--init", "1,2"], "ζ has 2 entries"),
         (vec!["oracle", "--cooling", "1.2"], "cooling"),
         (vec!["oracle", "--kick-scale", "0"], "kick_scale must be finite and > 0"),
+        (vec!["oracle", "--relocation-alpha0", "0"], "--relocation-alpha0 must be finite and > 0"),
         (vec!["oracle", "--tracking-tol=-1"], "tracking_tol must be finite and >= 0"),
         (vec!["oracle", "--threads", "0"], "threads must be at least 1"),
         (vec!["oracle", "--no-such-option"], "unexpected argument"),

@@ -36,6 +36,9 @@ pub enum RestartKind {
     /// Warm start from the best design of the restarts so far, moved by Gaussian noise
     /// ([`OracleConfig::kicks`]).
     Kick,
+    /// Colder warm start from the best design so far with one design element moved
+    /// ([`OracleConfig::relocations`]).
+    Relocation,
 }
 
 /// Oracle settings. [`OracleConfig::for_env`] gives the defaults.
@@ -87,10 +90,22 @@ pub struct OracleConfig {
     /// Standard deviation of kick `k`'s noise: `kick_scale · 2^(k mod 3)` in units of the
     /// instance's length scale.
     pub kick_scale: f64,
+    /// Relocation kicks after the Gaussian ones: warm restarts from the best design so far
+    /// with one design element (a relay, a facility) moved to serve a costly hop, two per round
+    /// like the kicks (see the `relocate` module). `None`: [`DEFAULT_RELOCATIONS`] with a
+    /// portfolio on an environment with at least two design elements, none otherwise.
+    pub relocations: Option<usize>,
+    /// Starting temperature of relocation kicks; `None`: a tenth of `warm_alpha0`. Colder
+    /// than the warm restarts: from `warm_alpha0` a moved UAV's users are shared out again and
+    /// the restart drifts back into the basin it was moved out of.
+    pub relocation_alpha0: Option<f64>,
 }
 
 /// Kicks of a portfolio run unless [`OracleConfig::kicks`] says otherwise.
 pub const DEFAULT_KICKS: usize = 6;
+
+/// Relocation kicks of a portfolio run unless [`OracleConfig::relocations`] says otherwise.
+pub const DEFAULT_RELOCATIONS: usize = 4;
 
 /// Kicks started from the same best design: a round is a fixed number, so that the designs (and
 /// the result) do not depend on the thread count; two keep two threads busy.
@@ -123,6 +138,8 @@ impl OracleConfig {
             polish: true,
             kicks: None,
             kick_scale: 0.01,
+            relocations: None,
+            relocation_alpha0: None,
         }
     }
 
@@ -137,6 +154,11 @@ impl OracleConfig {
         }
         if !(self.warm_alpha0.is_finite() && self.warm_alpha0 > 0.0) {
             return bad(format!("warm_alpha0 must be finite and > 0, got {}", self.warm_alpha0));
+        }
+        if let Some(a) = self.relocation_alpha0
+            && !(a.is_finite() && a > 0.0)
+        {
+            return bad(format!("relocation_alpha0 must be finite and > 0, got {a}"));
         }
         if !(self.alpha_min.is_finite() && self.alpha_min > 0.0 && self.alpha_min <= self.alpha0.min(self.warm_alpha0))
         {
@@ -171,10 +193,12 @@ impl OracleConfig {
 
     /// The kind of restart `r`: `init` (if any) is restart 0 and starts warm; with a mixed
     /// strategy the first other restart anneals; `Auto` is a portfolio for a `deterministic`
-    /// model and mixed otherwise; restarts from `restarts` on are kicks.
+    /// model and mixed otherwise; restarts from `restarts` on are kicks, and after the kicks
+    /// relocations.
     pub fn restart_kind(&self, r: usize, deterministic: bool) -> RestartKind {
         let first_free = usize::from(self.init.is_some());
         match (self.strategy, r) {
+            (_, r) if r >= self.restarts + self.kick_count(deterministic) => RestartKind::Relocation,
             (_, r) if r >= self.restarts => RestartKind::Kick,
             (_, 0) if self.init.is_some() => RestartKind::Warm,
             (Strategy::Anneal, _) => RestartKind::Anneal,
@@ -195,6 +219,15 @@ impl OracleConfig {
     /// The number of kicks after the restarts ([`OracleConfig::kicks`]).
     pub fn kick_count(&self, deterministic: bool) -> usize {
         self.kicks.unwrap_or(if self.portfolio(deterministic) { DEFAULT_KICKS } else { 0 })
+    }
+
+    /// The number of relocation kicks after the kicks ([`OracleConfig::relocations`]) on
+    /// `model`: none where it has fewer than two design elements.
+    pub fn relocation_count<M: ModelMdp + ?Sized>(&self, model: &M, deterministic: bool) -> usize {
+        if model.design_elements().len() < 2 {
+            return 0;
+        }
+        self.relocations.unwrap_or(if self.portfolio(deterministic) { DEFAULT_RELOCATIONS } else { 0 })
     }
 
     /// The cooling factor of restart `r`: `cooling`, except for the faster anneal restarts of a
@@ -219,6 +252,8 @@ impl OracleConfig {
         let mut a = match kind {
             RestartKind::Anneal => self.alpha0,
             RestartKind::Warm | RestartKind::Kick => self.warm_alpha0,
+            // Never below `alpha_min`: the schedule then holds `alpha_min` alone.
+            RestartKind::Relocation => self.relocation_alpha0.unwrap_or(0.1 * self.warm_alpha0),
         };
         while a > self.alpha_min * (1.0 + 1e-12) {
             out.push(a);

@@ -33,7 +33,10 @@
 //! A portfolio then *kicks* (basin hopping, [`OracleConfig::kicks`]): warm restarts from the best
 //! design so far moved by Gaussian noise, in rounds of [`KICKS_PER_ROUND`]; a kick replaces the
 //! best design only if it is better by more than [`KICK_GAIN`]. At 10,000 users the best design
-//! often lies in a basin next to the best restart's that no independent restart reaches.
+//! often lies in a basin next to the best restart's that no independent restart reaches. Then
+//! come *relocation kicks* ([`OracleConfig::relocations`]): colder warm restarts from the best
+//! design with one design element moved to serve a costly hop, for basins that differ by where
+//! a single UAV sits.
 
 use std::rc::Rc;
 use std::sync::OnceLock;
@@ -51,8 +54,9 @@ use crate::snapshot::Snapshot;
 
 mod config;
 mod outcome;
+mod relocate;
 
-pub use config::{DEFAULT_KICKS, KICKS_PER_ROUND, OracleConfig, RestartKind, Strategy};
+pub use config::{DEFAULT_KICKS, DEFAULT_RELOCATIONS, KICKS_PER_ROUND, OracleConfig, RestartKind, Strategy};
 pub use outcome::{Level, OracleOutcome, Restart};
 
 /// Whether every transition of `model` at `zeta` is certain.
@@ -102,7 +106,9 @@ pub fn run_oracle_with<M: ModelMdp + ?Sized>(
         }))
         .collect::<Result<_, _>>()?;
     let kicks = cfg.kick_count(deterministic);
-    let runner = Runner { model, cfg, streams: &streams, deterministic, finished, total: cfg.restarts + kicks };
+    let relocations = cfg.relocation_count(model, deterministic);
+    let total = cfg.restarts + kicks + relocations;
+    let runner = Runner { model, cfg, streams: &streams, deterministic, finished, total };
     let mut restarts = runner.run(0, &zeta0s, None)?;
     // Kicks: rounds of warm restarts from the best design so far, each moved by noise of one
     // of three scales (a design a little off the best one often descends into a better basin
@@ -122,6 +128,18 @@ pub fn run_oracle_with<M: ModelMdp + ?Sized>(
             })
             .collect();
         restarts.extend(runner.run(cfg.restarts + k0, &round, Some(from))?);
+    }
+    // Relocation kicks: rounds of colder warm restarts from the best design so far with one
+    // design element moved (two basins of a large UAV instance often differ by where one UAV
+    // sits, further than any Gaussian kick reaches).
+    for k0 in (0..relocations).step_by(KICKS_PER_ROUND) {
+        // A round has fewer designs only where few elements can move; the indices stay dense.
+        let first = restarts.len();
+        let from = best_of(&restarts, cfg.restarts);
+        let n = relocations.min(k0 + KICKS_PER_ROUND) - k0;
+        let mut rng = streams.stream(Purpose::Oracle, first as u64, 1);
+        let round = relocate::relocations(model, &restarts[from].zeta, n, &mut rng, cfg.threads)?;
+        restarts.extend(runner.run(first, &round, Some(from))?);
     }
     let best = best_of(&restarts, cfg.restarts);
     let jbest = restarts[best].j;
@@ -248,7 +266,7 @@ pub fn anneal<M: ModelMdp + ?Sized>(
     // Warm restarts use the SSP form wherever it exists; anneal restarts only below the switch.
     let alpha_switch = match kind {
         RestartKind::Anneal => cfg.alpha_switch,
-        RestartKind::Warm | RestartKind::Kick => f64::INFINITY,
+        RestartKind::Warm | RestartKind::Kick | RestartKind::Relocation => f64::INFINITY,
     };
     let cooling = cfg.restart_cooling(index, deterministic);
     let mut alphas = cfg.schedule(kind, cooling);
@@ -422,7 +440,13 @@ mod tests {
         // uav (κ = 1): warm restarts from the users' k-means centres, anneals from random ζ₀.
         let uav = envpg_envs::registry().load("uav271", &[]).unwrap();
         let model = uav.model().unwrap();
-        let cfg = OracleConfig { restarts: 3, threads: 2, kicks: Some(0), ..OracleConfig::for_env(model) };
+        let cfg = OracleConfig {
+            restarts: 3,
+            threads: 2,
+            kicks: Some(0),
+            relocations: Some(0),
+            ..OracleConfig::for_env(model)
+        };
         let out = run_oracle(model, &cfg).unwrap();
         let kinds: Vec<_> = out.restarts.iter().map(|r| r.kind).collect();
         assert_eq!(kinds, [RestartKind::Anneal, RestartKind::Warm, RestartKind::Anneal]);
@@ -444,13 +468,19 @@ mod tests {
         assert_eq!(out.restarts[1].zeta0, model.random_design(&mut restart_zeta0(1)));
     }
 
-    /// Every restart and kick is reported once, as it ends, with the run's total and the
-    /// design and J the outcome holds for it (a kick with the restart it moved).
+    /// Every restart, kick and relocation is reported once, as it ends, with the run's total
+    /// and the design and J the outcome holds for it (a kick with the restart it moved).
     #[test]
     fn a_run_reports_each_restart_and_kick_as_it_ends() {
         let env = flpo();
         let model = env.model().unwrap();
-        let cfg = OracleConfig { restarts: 3, kicks: Some(3), threads: 2, ..OracleConfig::for_env(model) };
+        let cfg = OracleConfig {
+            restarts: 3,
+            kicks: Some(3),
+            relocations: Some(2),
+            threads: 2,
+            ..OracleConfig::for_env(model)
+        };
         let seen = std::sync::Mutex::new(Vec::new());
         let out = run_oracle_with(model, &cfg, &|f| {
             let r = f.restart;
@@ -459,9 +489,9 @@ mod tests {
         .unwrap();
         let mut seen = seen.into_inner().unwrap();
         seen.sort_by_key(|s| s.0);
-        assert_eq!(seen.len(), 6, "three restarts and three kicks, each once");
+        assert_eq!(seen.len(), 8, "three restarts, three kicks and two relocations, each once");
         for (s, r) in seen.iter().zip(&out.restarts) {
-            assert_eq!(s, &(r.index, 6, r.from, r.j.to_bits(), r.zeta.clone()));
+            assert_eq!(s, &(r.index, 8, r.from, r.j.to_bits(), r.zeta.clone()));
         }
         assert!(out.restarts[3..].iter().all(|r| r.from.is_some()), "kicks say which restart they moved");
         let quiet = run_oracle(model, &cfg).unwrap();
@@ -477,7 +507,7 @@ mod tests {
         let model = env.model().unwrap();
         let run = |threads| run_oracle(model, &OracleConfig { restarts: 5, threads, ..OracleConfig::for_env(model) });
         let one = run(1).unwrap();
-        assert_eq!(one.restarts.len(), 5 + DEFAULT_KICKS, "the default kicks run too");
+        assert_eq!(one.restarts.len(), 5 + DEFAULT_KICKS + DEFAULT_RELOCATIONS, "the default kicks run too");
         for threads in [2, 3] {
             let many = run(threads).unwrap();
             assert_eq!(many.best, one.best);
@@ -491,7 +521,7 @@ mod tests {
     fn kicks_start_near_the_best_design_so_far_and_never_lose_it() {
         let env = flpo();
         let model = env.model().unwrap();
-        let base = OracleConfig { restarts: 3, threads: 1, ..OracleConfig::for_env(model) };
+        let base = OracleConfig { restarts: 3, threads: 1, relocations: Some(0), ..OracleConfig::for_env(model) };
         let plain = run_oracle(model, &OracleConfig { kicks: Some(0), ..base.clone() }).unwrap();
         let kicked = run_oracle(model, &OracleConfig { kicks: Some(5), ..base.clone() }).unwrap();
         assert_eq!(plain.restarts.len(), 3);
@@ -537,10 +567,60 @@ mod tests {
         assert_eq!(cfg.kick_count(false), 0, "auto on a stochastic model is mixed");
         assert_eq!(OracleConfig { strategy: Strategy::Warm, ..cfg.clone() }.kick_count(true), 0);
         assert_eq!(OracleConfig { strategy: Strategy::Warm, kicks: Some(2), ..cfg.clone() }.kick_count(true), 2);
+        assert_eq!(cfg.relocation_count(model, true), DEFAULT_RELOCATIONS, "flpo's facilities move");
+        assert_eq!(cfg.relocation_count(model, false), 0);
+        assert_eq!(OracleConfig { relocations: Some(3), ..cfg.clone() }.relocation_count(model, false), 3);
         let warm = run_oracle(model, &OracleConfig { strategy: Strategy::Warm, ..cfg.clone() }).unwrap();
         assert_eq!(warm.restarts.len(), 2);
-        let bad = OracleConfig { kick_scale: f64::NAN, ..cfg };
+        let bad = OracleConfig { kick_scale: f64::NAN, ..cfg.clone() };
         assert!(bad.validate(model).unwrap_err().to_string().contains("kick_scale"));
+        let bad = OracleConfig { relocation_alpha0: Some(0.0), ..cfg };
+        assert!(bad.validate(model).unwrap_err().to_string().contains("relocation_alpha0"));
+        // An environment with no design elements has nothing to relocate.
+        let aac = envpg_envs::registry().load("aac1800", &[]).unwrap();
+        let aac = aac.model().unwrap();
+        let cfg = OracleConfig { restarts: 2, relocations: Some(4), ..OracleConfig::for_env(aac) };
+        assert!(aac.design_elements().len() < 2);
+        assert_eq!(cfg.relocation_count(aac, true), 0);
+    }
+
+    /// A relocation kick starts from the best design so far with exactly one design element
+    /// moved, at the colder temperature, two per round from the best design after the round before; the result is
+    /// never worse than without them.
+    #[test]
+    fn relocation_kicks_move_one_design_element_and_never_lose_the_best() {
+        let env = flpo();
+        let model = env.model().unwrap();
+        let base = OracleConfig { restarts: 3, threads: 2, kicks: Some(2), ..OracleConfig::for_env(model) };
+        let plain = run_oracle(model, &OracleConfig { relocations: Some(0), ..base.clone() }).unwrap();
+        let moved = run_oracle(model, &OracleConfig { relocations: Some(4), ..base.clone() }).unwrap();
+        assert_eq!(moved.restarts.len(), 9);
+        for (a, b) in plain.restarts.iter().zip(&moved.restarts) {
+            assert_eq!((a.index, &a.zeta, a.j.to_bits()), (b.index, &b.zeta, b.j.to_bits()));
+        }
+        let elements = model.design_elements();
+        for (k, r) in moved.restarts[5..].iter().enumerate() {
+            assert_eq!((r.index, r.kind), (5 + k, RestartKind::Relocation));
+            let round_start = 5 + k / KICKS_PER_ROUND * KICKS_PER_ROUND;
+            let from = r.from.expect("a relocation names its origin");
+            assert_eq!(from, best_of(&moved.restarts[..round_start], 3), "relocation {k}");
+            let origin = &moved.restarts[from].zeta;
+            let changed: Vec<_> =
+                elements.iter().filter(|e| e.coords.clone().any(|i| r.zeta0[i] != origin[i])).collect();
+            assert_eq!(changed.len(), 1, "relocation {k} moves one element");
+            let untouched = (0..origin.len()).filter(|i| !changed[0].coords.contains(i));
+            assert!(untouched.into_iter().all(|i| r.zeta0[i] == origin[i]));
+            assert_eq!(r.levels[0].alpha, 0.1 * base.warm_alpha0, "relocations start colder");
+        }
+        // The two of a round move different elements.
+        for pair in moved.restarts[5..].chunks(2) {
+            let which = |r: &Restart| {
+                let origin = &moved.restarts[r.from.unwrap()].zeta;
+                elements.iter().position(|e| e.coords.clone().any(|i| r.zeta0[i] != origin[i])).unwrap()
+            };
+            assert_ne!(which(&pair[0]), which(&pair[1]));
+        }
+        assert!(moved.restarts[moved.best].j <= plain.restarts[plain.best].j);
     }
 
     /// Levels that only track the minimiser stop at the first short step: far fewer evaluations,
